@@ -1,0 +1,258 @@
+"""``synthcal generate``: one dataset spec → one complete sharded store.
+
+The run is planned entirely in the parent process — cameras, homographies and
+per-sample seeds — and only rendering is farmed out, shard by shard, to a local
+process pool or a Dask cluster. A sample's bytes therefore depend on the
+configuration alone, never on the number of workers or the order shards finish in.
+
+Resuming: the store grows under ``NAME.zarr.partial``; each finished shard leaves a
+marker in ``.NAME.zarr.progress/``; a rerun with the same configuration renders only
+the shards without a marker, and the last step renames the store to ``NAME.zarr``.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Callable, Iterable, Iterator
+
+import cv2
+import numpy as np
+import zarr
+from tqdm.auto import tqdm
+
+from synthcal.config import ConfigError, DatasetSpec
+from synthcal.generate.camera import homography as camera_homography
+from synthcal.generate.grid import CameraSamples, sample_cameras
+from synthcal.generate.render import Appearance, apply_appearance, render_image, render_semantic, visible_mask
+from synthcal.generate.scenes import Scene, build_scene, load_user_scene
+from synthcal.generate.store import CAMERA_FIELDS, FORMAT_VERSION, create_store, software_versions, write_samples
+
+__all__ = ["load_scene", "plan_homographies", "render_samples", "generate_dataset", "store_path"]
+
+
+def load_scene(spec: DatasetSpec) -> Scene:
+    """The spec's scene: built in, or read from the user's PNG files."""
+    return _cached_scene(spec.config_hash(), spec)
+
+
+@lru_cache(maxsize=4)
+def _cached_scene(key: str, spec: DatasetSpec) -> Scene:
+    if spec.user_scene is None:
+        return build_scene(spec.scene)
+    user = spec.user_scene
+    return load_user_scene(
+        spec.scene, user.image, user.semantic, palette=user.palette, classes=user.classes,
+        heading_deg=user.heading_deg, camera_position=user.camera_position,
+        pixels_per_metre=user.pixels_per_metre,
+    )
+
+
+def _check_grid_inside_scene(spec: DatasetSpec, scene: Scene) -> None:
+    height, width = scene.semantic.shape
+    for axis, limit in (("x", width - 1), ("y", height - 1)):
+        values = getattr(spec.grid, axis)
+        if values is not None and (values.start < 0 or values.stop > limit):
+            raise ConfigError(
+                f"datasets.{spec.name}: grid {axis} range {values.start:g}..{values.stop:g} leaves scene "
+                f"{scene.name!r} ({width} × {height} px; {axis} must lie in 0..{limit})"
+            )
+
+
+def plan_homographies(spec: DatasetSpec, scene: Scene, cameras: CameraSamples) -> np.ndarray:
+    """(N, 3, 3) homographies of the sampled cameras at the output size.
+
+    The scene's heading is added to every pan, and grid focals are scaled from
+    ``focal_reference_width`` to the output width (SPEC §2).
+    """
+    pan, tilt, focal, x, y, z = cameras.values.T
+    scale = spec.image_size[0] / spec.focal_reference_width
+    return camera_homography(pan + scene.heading_deg, tilt, focal * scale, np.stack([x, y, z], -1), spec.image_size)
+
+
+def sample_rng(seed: int, index: int) -> np.random.Generator:
+    """The generator of sample ``index``'s appearance: one stream per sample."""
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1, index)))
+
+
+def render_samples(
+    scene: Scene, homographies: np.ndarray, first_index: int, spec: DatasetSpec
+) -> tuple[np.ndarray, np.ndarray]:
+    """Render consecutive samples ``first_index, first_index + 1, …``.
+
+    Returns:
+        images (K, H, W, 3) uint8 and semantic maps (K, H, W) uint8.
+    """
+    width, height = spec.image_size
+    appearance = Appearance(**spec.appearance.model_dump())
+    images = np.empty((len(homographies), height, width, 3), np.uint8)
+    semantics = np.empty((len(homographies), height, width), np.uint8)
+    for k, H in enumerate(homographies):
+        image = render_image(scene.image, H, spec.image_size, spec.supersample)
+        image = apply_appearance(image, appearance, sample_rng(spec.seed, first_index + k))
+        image[~visible_mask(H, spec.image_size)] = 0  # the sky stays black after blur/brightness
+        images[k] = image
+        semantics[k] = render_semantic(scene.semantic, H, spec.image_size)
+    return images, semantics
+
+
+@dataclass(frozen=True)
+class ShardTask:
+    """One shard's worth of work, small enough to ship to any worker."""
+
+    spec: DatasetSpec
+    store: Path
+    progress: Path
+    shard: int
+    start: int
+    homographies: np.ndarray
+
+    def done_marker(self) -> Path:
+        return self.progress / f"shard-{self.shard:07d}.done"
+
+
+def run_shard(task: ShardTask) -> int:
+    """Render and write one shard, then mark it done; returns its sample count."""
+    cv2.setNumThreads(1)  # one process per core: OpenCV's own threads would oversubscribe
+    scene = load_scene(task.spec)
+    images, semantics = render_samples(scene, task.homographies, task.start, task.spec)
+    write_samples(task.store, task.start, images, semantics)
+    task.done_marker().touch()
+    return len(images)
+
+
+def store_path(out_dir: Path, dataset: str) -> Path:
+    """Where ``dataset``'s finished store lives under ``out_dir``."""
+    return Path(out_dir) / f"{dataset}.zarr"
+
+
+def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
+    return {
+        "format_version": FORMAT_VERSION,
+        "dataset": spec.name,
+        "scene": {
+            "name": scene.name, "classes": list(scene.classes), "palette": [list(c) for c in scene.palette],
+            "heading_deg": scene.heading_deg, "pixels_per_metre": scene.pixels_per_metre,
+            "camera_position": None if scene.camera_position is None else list(scene.camera_position),
+            "description": scene.description,
+        },
+        "grid": spec.grid.model_dump(mode="json"),
+        "N": spec.pool_size,
+        "seed": spec.seed,
+        "image_size": list(spec.image_size),
+        "focal_reference_width": spec.focal_reference_width,
+        "shard_size": spec.shard_size,
+        "software": software_versions(),
+        "config_hash": spec.config_hash(),
+        "config": spec.model_dump(mode="json"),
+        "complete": False,
+    }
+
+
+def _prepare_partial(spec: DatasetSpec, scene: Scene, partial: Path, progress: Path) -> np.ndarray:
+    """Create (or check, when resuming) the partial store; return the homographies."""
+    if partial.exists():
+        group = zarr.open_group(zarr.storage.LocalStore(partial, read_only=True), mode="r", zarr_format=3)
+        if group.attrs.get("config_hash") != spec.config_hash():
+            raise ConfigError(
+                f"{partial}: an unfinished store made with a different configuration "
+                f"(config_hash {group.attrs.get('config_hash')!r}); delete it or choose another --out"
+            )
+        return group["homography"][:]
+    cameras = sample_cameras(spec.grid, spec.pool_size, spec.seed, scene.camera_position)
+    homographies = plan_homographies(spec, scene, cameras)
+    camera = {name: cameras.values[:, i] for i, name in enumerate(CAMERA_FIELDS)}
+    camera["grid_index"] = cameras.grid_index
+    # Build the skeleton under a scratch name so a crash here leaves nothing to resume from.
+    scratch = partial.with_name(partial.name + ".creating")
+    shutil.rmtree(scratch, ignore_errors=True)
+    create_store(scratch, _attributes(spec, scene), spec.image_size, spec.shard_size,
+                 homographies, camera, scene.image, scene.semantic)
+    shutil.rmtree(progress, ignore_errors=True)
+    progress.mkdir(parents=True)
+    os.replace(scratch, partial)
+    return homographies
+
+
+def _execute(tasks: list[ShardTask], workers: int, scheduler: str | None) -> Iterator[int]:
+    """Run shard tasks in-process, on a process pool or on a Dask cluster."""
+    if scheduler is not None:
+        from dask.distributed import Client, as_completed as dask_completed
+
+        with Client(scheduler) as client:
+            for future in dask_completed(client.map(run_shard, tasks, pure=False)):
+                yield future.result()
+    elif workers <= 1:
+        previous = cv2.getNumThreads()
+        try:
+            yield from map(run_shard, tasks)
+        finally:
+            cv2.setNumThreads(previous)
+    else:
+        import multiprocessing
+
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            for future in as_completed([pool.submit(run_shard, task) for task in tasks]):
+                yield future.result()
+
+
+def generate_dataset(
+    spec: DatasetSpec,
+    out_dir: str | Path,
+    workers: int = 1,
+    scheduler: str | None = None,
+    progress: bool = True,
+    on_shard: Callable[[int], None] | None = None,
+) -> Path:
+    """Generate (or resume, or find finished) the store of one dataset.
+
+    Args:
+        spec: the resolved dataset configuration.
+        out_dir: folder that receives ``NAME.zarr``.
+        workers: local worker processes (1: in this process).
+        scheduler: a Dask scheduler address; overrides ``workers``.
+        progress: show a progress bar.
+        on_shard: called after each finished shard with its sample count.
+
+    Returns:
+        the path of the complete store.
+
+    Raises:
+        ConfigError: a scene that cannot be loaded, a grid leaving the scene, or
+            a store at the destination made from another configuration. Nothing is
+            written in those cases.
+    """
+    out_dir = Path(out_dir)
+    final = store_path(out_dir, spec.name)
+    scene = load_scene(spec)
+    _check_grid_inside_scene(spec, scene)
+    if final.exists():
+        group = zarr.open_group(zarr.storage.LocalStore(final, read_only=True), mode="r", zarr_format=3)
+        if group.attrs.get("config_hash") != spec.config_hash():
+            raise ConfigError(f"{final}: exists and was made with a different configuration; delete it or choose another --out")
+        return final
+    partial = final.with_name(final.name + ".partial")
+    progress_dir = out_dir / f".{final.name}.progress"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    homographies = _prepare_partial(spec, scene, partial, progress_dir)
+    size = spec.shard_size
+    tasks = [
+        ShardTask(spec, partial, progress_dir, shard, start, homographies[start:start + size])
+        for shard, start in enumerate(range(0, spec.pool_size, size))
+    ]
+    pending = [task for task in tasks if not task.done_marker().exists()]
+    done = spec.pool_size - sum(len(task.homographies) for task in pending)
+    with tqdm(total=spec.pool_size, initial=done, unit="sample", desc=spec.name, disable=not progress) as bar:
+        for count in _execute(pending, workers, scheduler):
+            bar.update(count)
+            if on_shard is not None:
+                on_shard(count)
+    group = zarr.open_group(zarr.storage.LocalStore(partial), mode="r+", zarr_format=3)
+    group.attrs["complete"] = True
+    os.replace(partial, final)
+    shutil.rmtree(progress_dir, ignore_errors=True)
+    return final

@@ -1,0 +1,162 @@
+"""The sharded Zarr v3 store of one generated dataset (SPEC §5).
+
+Layout (normative names)::
+
+    image               (N, H, W, 3) uint8      chunk (1, H, W, 3), shard (S, H, W, 3)
+    semantic            (N, H, W)    uint8      chunk (1, H, W),    shard (S, H, W)
+    homography          (N, 3, 3)    float64    bird's-eye → image, depth sign kept
+    camera/pan_deg …    (N,)         float64    pan_deg, tilt_deg, focal_px, x, y, z
+    camera/grid_index   (N,)         int64
+    scene/image         (Hs, Ws, 3)  uint8      the bird's-eye RGB
+    scene/semantic      (Hs, Ws)     uint8      the bird's-eye class map
+    splits/...                                  written by synthcal.generate.splits
+
+Group attributes record the format version, the scene, the grid, ``N``, the seed,
+the image size, ``focal_reference_width``, software versions and the hash of the
+resolved configuration.
+
+Atomicity: Zarr's local store writes every file under a temporary name and renames
+it, so a shard file is whole or absent. A store is built under ``NAME.zarr.partial``
+and renamed to ``NAME.zarr`` only when every shard is in, so a store found under its
+final name is always complete (its ``complete`` attribute says so too).
+"""
+
+from __future__ import annotations
+
+import platform
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zarr
+from zarr.codecs import ZstdCodec
+
+__all__ = [
+    "FORMAT_VERSION",
+    "CAMERA_FIELDS",
+    "StoreError",
+    "software_versions",
+    "create_store",
+    "write_samples",
+    "open_store",
+    "read_samples",
+]
+
+FORMAT_VERSION = "synthcal-store/1"
+CAMERA_FIELDS = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
+_COMPRESSOR = ZstdCodec(level=3)
+
+
+class StoreError(ValueError):
+    """A store that is missing, incomplete or not a synthcal store."""
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of the packages that shape the stored bytes."""
+    versions = {"python": platform.python_version()}
+    for package in ("synthcal", "numpy", "opencv-python-headless", "zarr"):
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            versions[package] = "unknown"
+    return versions
+
+
+def _sample_array(group: zarr.Group, name: str, shape: tuple[int, ...], dtype: str, shard_size: int) -> zarr.Array:
+    """An array with one sample per chunk and ``shard_size`` samples per shard."""
+    return group.create_array(
+        name,
+        shape=shape,
+        chunks=(1, *shape[1:]),
+        shards=(shard_size, *shape[1:]),
+        dtype=dtype,
+        compressors=_COMPRESSOR,
+        fill_value=0,
+    )
+
+
+def create_store(
+    path: Path,
+    attributes: dict[str, Any],
+    image_size: tuple[int, int],
+    shard_size: int,
+    homography: np.ndarray,
+    camera: dict[str, np.ndarray],
+    scene_image: np.ndarray,
+    scene_semantic: np.ndarray,
+) -> zarr.Group:
+    """Create a store with its per-sample metadata; images come shard by shard.
+
+    Args:
+        path: directory of the new group (must not exist).
+        attributes: group attributes (provenance).
+        image_size: ``(width, height)`` of the samples.
+        shard_size: samples per shard.
+        homography: (N, 3, 3) float64.
+        camera: ``CAMERA_FIELDS`` as (N,) float64 and ``grid_index`` as (N,) int64.
+        scene_image: (Hs, Ws, 3) uint8; scene_semantic: (Hs, Ws) uint8.
+
+    Returns:
+        the open group.
+    """
+    width, height = image_size
+    count = len(homography)
+    group = zarr.create_group(zarr.storage.LocalStore(path), zarr_format=3, attributes=attributes)
+    _sample_array(group, "image", (count, height, width, 3), "uint8", shard_size)
+    _sample_array(group, "semantic", (count, height, width), "uint8", shard_size)
+    _sample_array(group, "homography", (count, 3, 3), "float64", shard_size)[:] = homography
+    for name in CAMERA_FIELDS:
+        _sample_array(group, f"camera/{name}", (count,), "float64", shard_size)[:] = camera[name]
+    _sample_array(group, "camera/grid_index", (count,), "int64", shard_size)[:] = camera["grid_index"]
+    for name, array in (("scene/image", scene_image), ("scene/semantic", scene_semantic)):
+        group.create_array(name, shape=array.shape, chunks=array.shape, dtype="uint8",
+                           compressors=_COMPRESSOR, fill_value=0)[:] = array
+    return group
+
+
+def write_samples(path: Path, start: int, image: np.ndarray, semantic: np.ndarray) -> None:
+    """Write rendered samples ``start : start + len(image)`` (whole shards)."""
+    group = zarr.open_group(zarr.storage.LocalStore(path), mode="r+", zarr_format=3)
+    stop = start + len(image)
+    group["image"][start:stop] = image
+    group["semantic"][start:stop] = semantic
+
+
+def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:
+    """Open a generated store for reading.
+
+    Raises:
+        StoreError: no such store, not a synthcal store, or (unless
+            ``allow_incomplete``) a store whose generation has not finished.
+    """
+    path = Path(path)
+    if not (path / "zarr.json").is_file():
+        partial = path.with_name(path.name + ".partial")
+        hint = f"; an unfinished run is at {partial}: rerun `synthcal generate` to resume it" if partial.exists() else ""
+        raise StoreError(f"{path}: no synthcal store here{hint}")
+    group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r", zarr_format=3)
+    version = group.attrs.get("format_version")
+    if version != FORMAT_VERSION:
+        raise StoreError(f"{path}: format_version is {version!r}, expected {FORMAT_VERSION!r}")
+    if not allow_incomplete and not group.attrs.get("complete", False):
+        raise StoreError(f"{path}: the store is incomplete (generation did not finish)")
+    return group
+
+
+def read_samples(group: zarr.Group, index: np.ndarray) -> dict[str, np.ndarray]:
+    """Samples at ``index`` (any order), read in sorted order for speed.
+
+    Returns:
+        ``image`` (K, H, W, 3) uint8, ``semantic`` (K, H, W) uint8 and
+        ``homography`` (K, 3, 3) float64, in the order of ``index``.
+    """
+    index = np.asarray(index, dtype=np.int64)
+    order = np.argsort(index, kind="stable")
+    sorted_index = index[order]
+    inverse = np.empty_like(order)
+    inverse[order] = np.arange(len(order))
+    out = {}
+    for name in ("image", "semantic", "homography"):
+        out[name] = group[name].get_orthogonal_selection((sorted_index,))[inverse]
+    return out

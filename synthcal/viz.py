@@ -1,0 +1,57 @@
+"""Pictures for people: montages of samples and semantic overlays (NumPy in, NumPy out)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+__all__ = ["colorize", "overlay", "sample_strip", "tile", "write_png"]
+
+
+def colorize(semantic: np.ndarray, palette: np.ndarray | list) -> np.ndarray:
+    """(H, W) class ids → (H, W, 3) uint8 RGB using ``palette[class_id]``."""
+    return np.asarray(palette, dtype=np.uint8)[semantic]
+
+
+def overlay(image: np.ndarray, semantic: np.ndarray, palette: np.ndarray | list, alpha: float = 0.5) -> np.ndarray:
+    """RGB with the coloured semantic map blended over its labelled pixels."""
+    coloured = colorize(semantic, palette).astype(np.float32)
+    out = image.astype(np.float32)
+    labelled = semantic > 0
+    out[labelled] = (1 - alpha) * out[labelled] + alpha * coloured[labelled]
+    return out.astype(np.uint8)
+
+
+def sample_strip(image: np.ndarray, semantic: np.ndarray, palette: np.ndarray | list, gap: int = 2) -> np.ndarray:
+    """One sample as [image | coloured semantic | overlay], (H, 3W + 2·gap, 3)."""
+    spacer = np.full((image.shape[0], gap, 3), 255, np.uint8)
+    parts = [image, spacer, colorize(semantic, palette), spacer, overlay(image, semantic, palette)]
+    return np.concatenate(parts, axis=1)
+
+
+def tile(pictures: list[np.ndarray], columns: int | None = None, gap: int = 6) -> np.ndarray:
+    """Equal-sized (H, W, 3) pictures on a white grid, row-major."""
+    if not pictures:
+        raise ValueError("nothing to tile")
+    columns = columns or math.ceil(math.sqrt(len(pictures)))
+    rows = math.ceil(len(pictures) / columns)
+    h, w = pictures[0].shape[:2]
+    canvas = np.full((rows * (h + gap) + gap, columns * (w + gap) + gap, 3), 255, np.uint8)
+    for k, picture in enumerate(pictures):
+        r, c = divmod(k, columns)
+        canvas[gap + r * (h + gap): gap + r * (h + gap) + h, gap + c * (w + gap): gap + c * (w + gap) + w] = picture
+    return canvas
+
+
+def write_png(path: str | Path, rgb: np.ndarray) -> Path:
+    """Write an RGB picture as PNG (atomically: temporary name, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    if not cv2.imwrite(str(tmp), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)):
+        raise OSError(f"{path}: could not write the PNG")
+    tmp.replace(path)
+    return path

@@ -1,0 +1,87 @@
+"""Rendering: cheirality, scene edges and anti-aliasing, checked against OpenCV projection."""
+
+import cv2
+import numpy as np
+
+from synthcal.generate.camera import homography
+from synthcal.generate.render import Appearance, apply_appearance, render_image, render_semantic, visible_mask
+
+SIZE = (64, 36)
+
+
+def test_tilt_zero_upper_half_is_background():
+    scene = np.ones((1900, 1300), np.uint8)
+    H = homography([30.0], [0.0], [60.0], [[650.0, 950.0, 80.0]], SIZE)[0]
+    view = render_semantic(scene, H, SIZE)
+    assert np.all(view[: SIZE[1] // 2] == 0)  # rows above the principal point see sky
+    assert np.all(view[-3:] == 1)  # the ground right below the horizon line is in the scene
+    # Plain warping paints a mirrored ground into the sky; the mask is what removes it.
+    unmasked = cv2.warpPerspective(scene, H, SIZE, flags=cv2.INTER_NEAREST)
+    assert unmasked[: SIZE[1] // 2].any()
+
+
+def test_rgb_is_black_above_the_horizon():
+    scene = np.full((1900, 1300, 3), 200, np.uint8)
+    H = homography([0.0], [0.0], [60.0], [[650.0, 950.0, 80.0]], SIZE)[0]
+    image = render_image(scene, H, SIZE, supersample=2)
+    assert np.all(image[: SIZE[1] // 2 - 1] == 0)
+    assert np.all(image[-3:] == 200)
+
+
+def test_scene_edge_is_background_beyond():
+    """Looking across the right edge u = W−1 of a scene that is class 1 everywhere."""
+    height, width = 400, 300
+    scene = np.ones((height, width), np.uint8)
+    H = homography([0.0], [-25.0], [40.0], [[150.0, 200.0, 60.0]], SIZE)[0]
+    view = render_semantic(scene, H, SIZE)
+    # Independent ground truth: the ground point of each pixel centre by ray casting.
+    K = np.array([[40.0, 0, 31.5], [0, 40.0, 17.5], [0, 0, 1]])
+    pan, tilt = 0.0, np.deg2rad(-25.0)
+    right, view_dir = np.array([0.0, 1, 0]), np.array([np.cos(tilt), 0, -np.sin(tilt)])
+    down = np.cross(view_dir, right)
+    ys, xs = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
+    rays_cam = np.linalg.inv(K) @ np.stack([xs.ravel(), ys.ravel(), np.ones(xs.size)])
+    rays = np.outer(right, rays_cam[0]) + np.outer(down, rays_cam[1]) + np.outer(view_dir, rays_cam[2])
+    t = 60.0 / rays[2]  # the centre is at z = −60; the ground at z = 0
+    u = 150.0 + t * rays[0]
+    v = 200.0 + t * rays[1]
+    inside = (t > 0) & (np.round(u) >= 0) & (np.round(u) <= width - 1) & (np.round(v) >= 0) & (np.round(v) <= height - 1)
+    # Pixels within half a bird's-eye pixel of the edge may round either way.
+    margin = (np.abs(u - (width - 0.5)) < 0.5) | (np.abs(u + 0.5) < 0.5) | (np.abs(v - (height - 0.5)) < 0.5)
+    expected = inside.reshape(ys.shape).astype(np.uint8)
+    sure = ~margin.reshape(ys.shape)
+    assert (expected == 0).sum() > 100 and (expected == 1).sum() > 100, "the view must show both sides of the edge"
+    np.testing.assert_array_equal(view[sure], expected[sure])
+
+
+def test_visible_mask_matches_depth_sign():
+    H = homography([45.0], [-5.0], [30.0], [[0.0, 0.0, 10.0]], SIZE)[0]
+    mask = visible_mask(H, SIZE)
+    ys, xs = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
+    ground = np.linalg.solve(H, np.stack([xs.ravel(), ys.ravel(), np.ones(xs.size)]))
+    np.testing.assert_array_equal(mask.ravel(), ground[2] > 0)
+    assert mask.any() and not mask.all()
+
+
+def test_supersampling_antialiases_a_fine_stripe_pattern():
+    scene = np.zeros((2000, 2000, 3), np.uint8)
+    scene[:, ::2] = 255  # one-pixel stripes: alias badly without anti-aliasing
+    H = homography([90.0], [-60.0], [150.0], [[1000.0, 200.0, 300.0]], SIZE)[0]
+    plain = render_image(scene, H, SIZE, supersample=1).astype(float)
+    smooth = render_image(scene, H, SIZE, supersample=4).astype(float)
+    lower = slice(SIZE[1] // 2, None)
+    assert smooth[lower].std() < 0.5 * plain[lower].std()
+    np.testing.assert_allclose(smooth[lower].mean(), 127.5, atol=20)
+
+
+def test_appearance_is_seeded_and_bounded():
+    image = np.full((36, 64, 3), 120, np.uint8)
+    appearance = Appearance(brightness=20, contrast=0.2, blur_sigma=1.0, noise_sigma=5.0)
+    a = apply_appearance(image, appearance, np.random.default_rng(3))
+    b = apply_appearance(image, appearance, np.random.default_rng(3))
+    c = apply_appearance(image, appearance, np.random.default_rng(4))
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+    assert abs(a.astype(float).mean() - 120) <= 21
+    untouched = apply_appearance(image, Appearance(), np.random.default_rng(3))
+    np.testing.assert_array_equal(untouched, image)

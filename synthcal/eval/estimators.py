@@ -1,0 +1,453 @@
+"""The estimator plug-in interface (SPEC §9), loading, and simple bundled estimators.
+
+Convention: every homography maps a bird's-eye pixel to an image pixel,
+``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).
+
+The interface
+-------------
+An estimator is any class with
+
+* ``fit(train, dictionary, scene) -> None`` — called once per (dataset, seed).
+  ``train`` and ``dictionary`` are split objects exposing ``.images`` (K, H, W, 3)
+  uint8 RGB, ``.semantics`` (K, H, W) uint8 class ids, ``.homographies``
+  (K, 3, 3) float64, ``.indices`` (K,) int64 positions in the store and ``.store``
+  (the store's path); the arrays may be NumPy or lazy array-likes that support
+  slicing and ``numpy.asarray``. ``scene`` exposes ``.image`` (Hs, Ws, 3) uint8,
+  ``.semantic`` (Hs, Ws) uint8, ``.palette`` (4 RGB triples) and ``.classes``
+  (4 names). The objects come from ``synthcal.data.load_split``; an estimator
+  should use these attributes only.
+* ``predict(images) -> (B, 3, 3)`` — ``images`` (B, H, W, 3) uint8 RGB; returns
+  bird's-eye → image homographies as float64, any positive or negative scale
+  (the harness fixes the sign, SPEC §2). A row may be NaN where the estimator
+  gives up: the image is then counted as a failure (SPEC §8).
+
+``load_estimator(name_or_path, **options)`` turns a command-line/config value
+into an instance: a dotted path ``package.module:Class``, a name in the
+entry-point group ``synthcal.estimators``, or a bundled short name.
+
+Bundled here (the learned models live in :mod:`synthcal.models`)
+------------------------------------------------------------------
+``identity``
+    Ignores the image: always the train set's *medoid* camera — the train sample
+    whose semantic view has the smallest mean squared one-hot distance to all
+    train views. It is what the template pipeline returns when the image carries
+    no information (identity refinement ``H̄ = I`` of a fixed template), the
+    lower bound any estimator must beat. ``np.eye(3)`` itself would not be a
+    camera of the scene and would score 0, telling nothing.
+``template``
+    The matched template alone: segment the image (a replaceable
+    :class:`Segmenter`; default a colour look-up table fitted on the train set),
+    pick the dictionary template of lowest MSE between one-hot maps, return its
+    homography.
+``ecc``
+    ``template``, then refined by OpenCV's ECC (``MOTION_HOMOGRAPHY``) between the
+    template's and the image's semantic maps: ``H = W · H_k`` with ``W`` the found
+    template-pixel → image-pixel warp.
+"""
+
+from __future__ import annotations
+
+import importlib
+from importlib import metadata
+from typing import Any, Protocol, runtime_checkable
+
+import cv2
+import numpy as np
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "Estimator",
+    "Segmenter",
+    "EstimatorError",
+    "ColourSegmenter",
+    "IdentityEstimator",
+    "TemplateEstimator",
+    "ECCEstimator",
+    "BUNDLED",
+    "known_estimators",
+    "load_estimator",
+    "one_hot",
+    "match_templates",
+    "medoid_index",
+    "ecc_warp",
+]
+
+ENTRY_POINT_GROUP = "synthcal.estimators"
+NUM_CLASSES = 4
+
+
+@runtime_checkable
+class Estimator(Protocol):
+    """A homography estimator (SPEC §9); see the module docstring for argument types."""
+
+    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+        """Learn from the train split, the template dictionary and the scene."""
+
+    def predict(self, images: np.ndarray) -> np.ndarray:
+        """(B, H, W, 3) uint8 RGB → (B, 3, 3) float64 bird's-eye → image homographies."""
+
+
+@runtime_checkable
+class Segmenter(Protocol):
+    """RGB → class map, the replaceable first stage of the template estimators."""
+
+    def fit(self, images: np.ndarray, semantics: np.ndarray) -> None:
+        """Learn from (K, H, W, 3) uint8 images and their (K, H, W) uint8 class maps."""
+
+    def __call__(self, images: np.ndarray) -> np.ndarray:
+        """(B, H, W, 3) uint8 RGB → (B, H, W) uint8 class ids."""
+
+
+class EstimatorError(ValueError):
+    """An estimator name or path that cannot be resolved, or an object that is no estimator."""
+
+
+# --- segmentation -----------------------------------------------------------------------
+
+
+def _subsample(array: Any, max_items: int) -> np.ndarray:
+    """Up to ``max_items`` evenly spaced items along axis 0, by basic slicing (lazy-array safe)."""
+    step = max(1, -(-len(array) // max_items))
+    return np.asarray(array[::step])
+
+
+class ColourSegmenter:
+    """Per-pixel classifier by a colour look-up table fitted on labelled images.
+
+    RGB is quantised to ``2**bits`` levels per channel; each colour bin takes the
+    class most often seen with it in the training pixels. A class may have
+    several colours (background is sky, roofs and pavement), which a single
+    mean colour per class would miss. Bins never seen take the class whose mean
+    colour is nearest. CPU-cheap: one ``bincount`` to fit, one table look-up to
+    apply. Stand-in for the UNet (SPEC §7) behind the same :class:`Segmenter`
+    interface.
+
+    Args:
+        bits: quantisation bits per channel (5 → 32,768 bins).
+        max_images: at most this many evenly spaced train images are used to fit.
+    """
+
+    def __init__(self, bits: int = 5, max_images: int = 256) -> None:
+        self.bits = int(bits)
+        self.max_images = int(max_images)
+        self.table: np.ndarray | None = None
+
+    def _bins(self, images: np.ndarray) -> np.ndarray:
+        q = (np.asarray(images, np.uint8) >> (8 - self.bits)).astype(np.int64)
+        return (q[..., 0] << (2 * self.bits)) | (q[..., 1] << self.bits) | q[..., 2]
+
+    def fit(self, images: np.ndarray, semantics: np.ndarray) -> None:
+        images, semantics = _subsample(images, self.max_images), _subsample(semantics, self.max_images)
+        n_bins = 1 << (3 * self.bits)
+        labels = semantics.reshape(-1).astype(np.int64)
+        counts = np.bincount(self._bins(images).reshape(-1) * NUM_CLASSES + labels,
+                             minlength=n_bins * NUM_CLASSES).reshape(n_bins, NUM_CLASSES)
+        pixels = images.reshape(-1, 3).astype(np.float64)
+        totals = np.bincount(labels, minlength=NUM_CLASSES)
+        means = np.stack([np.bincount(labels, pixels[:, k], NUM_CLASSES) for k in range(3)], 1)
+        means = np.where(totals[:, None] > 0, means / np.maximum(totals, 1)[:, None], np.inf)
+        levels = (np.arange(1 << self.bits) + 0.5) * (1 << (8 - self.bits))
+        centres = np.stack(np.meshgrid(levels, levels, levels, indexing="ij"), -1).reshape(-1, 3)
+        nearest = np.argmin(((centres[:, None, :] - means[None]) ** 2).sum(-1), axis=1)
+        self.table = np.where(counts.sum(1) > 0, counts.argmax(1), nearest).astype(np.uint8)
+
+    def __call__(self, images: np.ndarray) -> np.ndarray:
+        if self.table is None:
+            raise RuntimeError("ColourSegmenter: call fit() first")
+        return self.table[self._bins(images)]
+
+
+# --- matching ---------------------------------------------------------------------------
+
+
+def one_hot(semantics: np.ndarray, stride: int = 1) -> np.ndarray:
+    """Flattened one-hot class maps, for matching by matrix products.
+
+    Args:
+        semantics: (K, H, W) integer class ids in ``0..3``.
+        stride: keep every ``stride``-th pixel in each direction.
+
+    Returns:
+        (K, 4 · ⌈H/stride⌉ · ⌈W/stride⌉) float32.
+    """
+    s = np.asarray(semantics)[:, ::stride, ::stride]
+    return (s[..., None] == np.arange(NUM_CLASSES)).reshape(len(s), -1).astype(np.float32)
+
+
+def match_templates(queries: np.ndarray, templates: np.ndarray, chunk: int = 256) -> np.ndarray:
+    """Index of the template of lowest MSE for each query (one-hot maps).
+
+    For one-hot maps ``‖q − t‖² = 2 · #pixels whose labels differ = 2 (P − q·t)``,
+    so the lowest MSE is the largest dot product: one GEMM per chunk of queries.
+
+    Args:
+        queries: (B, D) one-hot maps from :func:`one_hot`.
+        templates: (K, D) one-hot maps, same stride.
+        chunk: queries per matrix product (bounds memory to ``chunk × K``).
+
+    Returns:
+        (B,) int64 template indices (ties: the lowest index).
+    """
+    out = np.empty(len(queries), np.int64)
+    for start in range(0, len(queries), chunk):
+        out[start:start + chunk] = np.argmax(queries[start:start + chunk] @ templates.T, axis=1)
+    return out
+
+
+def medoid_index(semantics: Any, chunk: int = 256) -> int:
+    """The class map with the smallest mean squared one-hot distance to all others.
+
+    ``mean_j ‖x_i − x_j‖² = ‖x_i − x̄‖² + const`` and, for one-hot ``x_i``,
+    ``‖x_i − x̄‖² = const − 2 Σ_p x̄[p, label_i(p)]``: the medoid is the map whose
+    labels agree best with the per-pixel class frequencies ``x̄`` — O(K·P), no
+    K × K distance matrix.
+
+    Args:
+        semantics: (K, H, W) uint8 class ids (array or slicable lazy array).
+        chunk: maps processed at a time.
+
+    Returns:
+        Index of the medoid in ``0..K-1``.
+    """
+    n = len(semantics)
+    counts = None
+    for start in range(0, n, chunk):
+        block = np.asarray(semantics[start:start + chunk]).astype(np.int64)
+        c = (block[..., None] == np.arange(NUM_CLASSES)).sum(0)
+        counts = c if counts is None else counts + c
+    frequency = counts / n
+    scores = []
+    for start in range(0, n, chunk):
+        block = np.asarray(semantics[start:start + chunk]).astype(np.int64)
+        agree = np.take_along_axis(frequency[None], block[..., None], axis=-1)[..., 0]
+        scores.append(agree.reshape(len(block), -1).sum(1))
+    return int(np.argmax(np.concatenate(scores)))
+
+
+# --- ECC refinement -----------------------------------------------------------------------
+
+_GREY_LEVELS = np.array([0.0, 1.0, 2.0, 3.0], np.float32) / 3.0
+
+
+def ecc_warp(
+    template: np.ndarray,
+    target: np.ndarray,
+    iterations: int = 100,
+    eps: float = 1e-6,
+    blur: int = 5,
+) -> np.ndarray | None:
+    """Image homography between two class maps by ECC (OpenCV ``findTransformECC``).
+
+    OpenCV's convention: the returned ``W`` satisfies ``target(W x) ≈ template(x)``,
+    i.e. ``W`` maps *template* pixel coordinates to *target* pixel coordinates
+    (pixel centres at integers). So if ``template`` was rendered by ``H_k``, the
+    target is seen by ``W · H_k``. Class maps become grey images (class id / 3),
+    smoothed by a ``blur`` × ``blur`` Gaussian inside ECC for a wider basin.
+
+    Args:
+        template: (H, W) class map (the matched template's view).
+        target: (H, W) class map (the segmented input image).
+        iterations: maximum ECC iterations.
+        eps: ECC convergence threshold on the correlation increment.
+        blur: Gaussian kernel size (odd, ≥ 1).
+
+    Returns:
+        (3, 3) float64 warp normalised to ``W[2, 2] = 1``, or None if ECC failed
+        (no convergence, featureless input).
+    """
+    warp = np.eye(3, dtype=np.float32)
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, int(iterations), float(eps))
+    try:
+        _, warp = cv2.findTransformECC(
+            _GREY_LEVELS[np.asarray(template)], _GREY_LEVELS[np.asarray(target)], warp,
+            cv2.MOTION_HOMOGRAPHY, criteria, None, int(blur),
+        )
+    except cv2.error:
+        return None
+    warp = warp.astype(np.float64)
+    if not np.isfinite(warp).all() or abs(warp[2, 2]) < 1e-12:
+        return None
+    return warp / warp[2, 2]
+
+
+# --- bundled estimators -------------------------------------------------------------------
+
+
+class IdentityEstimator:
+    """Ignores the image and predicts the train set's medoid camera (module docstring)."""
+
+    def __init__(self) -> None:
+        self.homography: np.ndarray | None = None
+
+    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+        self.homography = np.asarray(train.homographies[medoid_index(train.semantics)], np.float64)
+
+    def predict(self, images: np.ndarray) -> np.ndarray:
+        if self.homography is None:
+            raise RuntimeError("IdentityEstimator: call fit() first")
+        return np.repeat(self.homography[None], len(images), axis=0)
+
+
+class TemplateEstimator:
+    """Segment, then return the homography of the nearest dictionary template (MSE).
+
+    Args:
+        segmenter: any :class:`Segmenter`; default :class:`ColourSegmenter`. It is
+            fitted on the train split in :meth:`fit` (pass ``fit_segmenter=False``
+            for a segmenter that is already trained, e.g. the UNet).
+        stride: pixel stride of the one-hot maps used for matching (2 keeps a
+            1,000-template dictionary of 256 × 144 maps at 150 MB).
+        fit_segmenter: whether :meth:`fit` trains the segmenter.
+    """
+
+    def __init__(self, segmenter: Segmenter | None = None, stride: int = 2, fit_segmenter: bool = True) -> None:
+        self.segmenter = segmenter if segmenter is not None else ColourSegmenter()
+        self.stride = int(stride)
+        self.fit_segmenter = fit_segmenter
+        self.templates: np.ndarray | None = None
+        self.template_semantics: np.ndarray | None = None
+        self.template_homographies: np.ndarray | None = None
+
+    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+        if self.fit_segmenter:
+            self.segmenter.fit(train.images, train.semantics)
+        self.template_semantics = np.asarray(dictionary.semantics)
+        self.template_homographies = np.asarray(dictionary.homographies, np.float64)
+        self.templates = one_hot(self.template_semantics, self.stride)
+
+    def match(self, images: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Segment ``images`` and match them.
+
+        Returns:
+            ``(indices, semantics)``: (B,) template indices and the (B, H, W)
+            segmentations.
+        """
+        if self.templates is None:
+            raise RuntimeError(f"{type(self).__name__}: call fit() first")
+        semantics = self.segmenter(np.asarray(images))
+        return match_templates(one_hot(semantics, self.stride), self.templates), semantics
+
+    def predict(self, images: np.ndarray) -> np.ndarray:
+        indices, _ = self.match(images)
+        return self.template_homographies[indices].copy()
+
+
+class ECCEstimator(TemplateEstimator):
+    """:class:`TemplateEstimator`, then ECC refinement of the matched template.
+
+    When ECC fails on an image, the matched template's homography is kept.
+
+    Args:
+        segmenter, stride, fit_segmenter: as :class:`TemplateEstimator`.
+        iterations, eps, blur: as :func:`ecc_warp`.
+    """
+
+    def __init__(
+        self,
+        segmenter: Segmenter | None = None,
+        stride: int = 2,
+        fit_segmenter: bool = True,
+        iterations: int = 100,
+        eps: float = 1e-6,
+        blur: int = 5,
+    ) -> None:
+        super().__init__(segmenter, stride, fit_segmenter)
+        self.iterations, self.eps, self.blur = iterations, eps, blur
+
+    def predict(self, images: np.ndarray) -> np.ndarray:
+        indices, semantics = self.match(images)
+        out = self.template_homographies[indices].copy()
+        for k, (index, semantic) in enumerate(zip(indices, semantics)):
+            warp = ecc_warp(self.template_semantics[index], semantic, self.iterations, self.eps, self.blur)
+            if warp is not None:
+                out[k] = warp @ out[k]
+        return out
+
+
+# --- loading ----------------------------------------------------------------------------
+
+BUNDLED: dict[str, str] = {
+    "identity": "synthcal.eval.estimators:IdentityEstimator",
+    "template": "synthcal.eval.estimators:TemplateEstimator",
+    "ecc": "synthcal.eval.estimators:ECCEstimator",
+}
+
+
+def _entry_points() -> dict[str, metadata.EntryPoint]:
+    # Looked up through the module at call time so tests can monkeypatch it.
+    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def known_estimators() -> dict[str, str]:
+    """Resolvable short names → ``module:Class``: bundled ones, then entry points."""
+    names = dict(BUNDLED)
+    for name, ep in _entry_points().items():
+        names.setdefault(name, ep.value)
+    return names
+
+
+def _import_dotted(path: str) -> Any:
+    module_name, _, attribute = path.partition(":")
+    if not module_name or not attribute:
+        raise EstimatorError(f"estimator {path!r}: expected 'package.module:Class'")
+    try:
+        obj = importlib.import_module(module_name)
+    except ImportError as error:
+        raise EstimatorError(f"estimator {path!r}: cannot import module {module_name!r} ({error})") from error
+    for part in attribute.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            raise EstimatorError(
+                f"estimator {path!r}: module {module_name!r} has no attribute {attribute!r}") from None
+    return obj
+
+
+def load_estimator(name_or_path: str, **options: Any) -> Estimator:
+    """Instantiate an estimator from a command-line or config value.
+
+    Resolution order: a value containing ``:`` is a dotted path
+    ``package.module:Class``; otherwise a bundled short name (``identity``,
+    ``template``, ``ecc`` — bundled names cannot be shadowed by third-party
+    packages); otherwise an entry point of that name in group
+    ``synthcal.estimators``.
+
+    Args:
+        name_or_path: the value to resolve.
+        **options: keyword arguments for the class's constructor.
+
+    Returns:
+        The estimator instance.
+
+    Raises:
+        EstimatorError: the value cannot be resolved (the message names it and
+            lists the known names), or the object has no ``fit``/``predict``.
+    """
+    value = str(name_or_path)
+    if ":" in value:
+        cls = _import_dotted(value)
+    elif value in BUNDLED:
+        cls = _import_dotted(BUNDLED[value])
+    else:
+        entry_points = _entry_points()
+        if value not in entry_points:
+            known = ", ".join(sorted(known_estimators()))
+            raise EstimatorError(
+                f"unknown estimator {value!r}: not a 'package.module:Class' path, a bundled name "
+                f"or an entry point in group {ENTRY_POINT_GROUP!r}; known: {known}"
+            )
+        try:
+            cls = entry_points[value].load()
+        except Exception as error:  # a broken plug-in must name itself
+            raise EstimatorError(f"estimator {value!r}: entry point {entry_points[value].value!r} "
+                                 f"failed to load ({error})") from error
+    if not callable(cls):
+        raise EstimatorError(f"estimator {value!r}: {cls!r} is not a class or factory")
+    try:
+        estimator = cls(**options)
+    except TypeError as error:  # e.g. an option the class does not take
+        raise EstimatorError(f"estimator {value!r}: cannot construct with options {options}: {error}") from error
+    if not isinstance(estimator, Estimator):
+        raise EstimatorError(f"estimator {value!r}: {estimator!r} has no fit(train, dictionary, scene) "
+                             "and predict(images) methods")
+    return estimator

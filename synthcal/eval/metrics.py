@@ -1,0 +1,407 @@
+"""Per-image accuracy of estimated homographies (SPEC §8).
+
+Convention
+----------
+Every homography maps a bird's-eye pixel to an image pixel,
+``x_img ~ H (u, v, 1)ᵀ``, and its third output coordinate is the depth (positive
+in front of the camera; SPEC §2). Image pixels have their centres at integer
+coordinates, so an image of size ``(W, H)`` covers the rectangle
+``[-0.5, W - 0.5] × [-0.5, H - 0.5]``; the same holds for the bird's-eye scene.
+
+Metrics
+-------
+``iou``
+    The paper's: the scene's semantic map is rendered through the estimate and
+    through the truth by :func:`synthcal.generate.render.render_semantic` (the
+    generator's own renderer, cheirality mask included), and the per-class
+    ``|Ŷc ∩ Yc| / |Ŷc ∪ Yc|`` is averaged over the classes 1–3 present in either
+    view. If no class is present in either view, both agree that nothing is seen
+    and the score is 1.
+``iou_part``
+    In the bird's-eye plane: the ground seen by the image under the truth against
+    the ground seen under the estimate, each clipped to the scene rectangle.
+``iou_whole``
+    In the image plane: the part of the image rectangle that sees the ground under
+    the truth, against that region sent to the ground by the truth and back into
+    the image by the estimate, on a canvas ``canvas_scale`` times the image in
+    each direction (4, as in the literature's code, see below).
+
+``iou_part`` and ``iou_whole`` are computed *exactly*, not by rasterisation. An
+image pixel ``x`` sees ground point ``g`` when ``x ~ H g`` with positive depth;
+for homogeneous ``p = H g`` the four conditions "inside the image rectangle"
+(``p₁ + 0.5 p₃ ≥ 0``, ``(W - 0.5) p₃ - p₁ ≥ 0`` and the same for rows) are linear
+in ``g`` and their sum is ``W p₃ ≥ 0``, so they also enforce cheirality. Each
+region is therefore a convex polygon: a rectangle clipped by a few half-planes
+(Sutherland–Hodgman), whose area is exact. This is the limit of the literature's
+rasterised IoU as the raster gets finer, needs no resolution setting, and costs
+microseconds (results are rounded to 12 decimals so that an exact match
+scores exactly 1 despite float round-off). If both regions are empty the score is 1 (they agree); a union of
+zero area with one region non-empty cannot occur.
+
+What the literature's code does for ``iou_whole`` (our reading)
+---------------------------------------------------------------
+Jiang et al. (WACV 2020, ``vcg-uvic/sportsfield_release``, ``utils/metrics.py``,
+``get_model_whole_iou_rasterization``) keep homographies *frame → template* in
+normalised coordinates (``[-0.5, 0.5]²`` for both). They fill a canvas 4× larger
+(``ZOOM_OUT_SCALE = 4``) with ``mask(y) = [T⁻¹ O S y ∈ unit square]``, ``T`` the
+truth, ``O`` the estimate, ``S`` the zoom, against ``mask(y) = [S y ∈ unit
+square]``, both bilinearly sampled and thresholded at 0.5. With ``O, T`` mapping
+frame → template the composite ``T⁻¹ O`` takes a *frame* point to the template by
+the estimate and back by the truth, so the compared regions are the frame
+rectangle and ``O⁻¹ T`` (frame rectangle): the rectangle sent to the template by
+the truth and back by the estimate — exactly SPEC §8's wording. Written for our
+bird's-eye → image ``H``: ``B = H_est · H_true⁻¹ (R)``. A later kornia-based
+re-implementation for SoccerNet homographies (``iou_whole(h_pred, h_true)``, same
+zoom-out of 4) composes the same product. Neither masks points behind the camera (``grid_sample`` of points
+divided by a negative depth); we do, as SPEC §2 requires of every warp, which is
+why region ``A`` is the part of the rectangle below the true horizon — with it an
+oracle scores exactly 1. Like the literature, the part of ``B`` beyond the canvas
+is ignored (it can only be reached by estimates far off).
+
+Failures
+--------
+A foreign estimate is first checked and oriented by :func:`check_homography`:
+``None``, a wrong shape, NaN/inf entries or a singular matrix (smallest singular
+value below ``1e-12`` of the largest; grid cameras are above ``1e-8``) score 0 on
+every metric and are flagged; otherwise its overall sign is fixed with
+:func:`synthcal.generate.camera.orient_homography`.
+
+Example
+-------
+>>> import numpy as np
+>>> scene = np.repeat(np.repeat(np.array([[1, 2, 3]], np.uint8), 40, 1), 60, 0)
+>>> H = np.array([[1.0, 0, -10], [0, 1, -10], [0, 0, 1]])
+>>> iou(scene, H, H, (64, 36)), iou_part(scene.shape, H, H, (64, 36))
+(1.0, 1.0)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from synthcal.generate.camera import orient_homography
+from synthcal.generate.render import render_semantic
+
+__all__ = [
+    "SINGULAR_RCOND",
+    "check_homography",
+    "semantic_iou",
+    "iou",
+    "iou_part",
+    "iou_whole",
+    "evaluate",
+    "completeness",
+    "summarize",
+]
+
+SINGULAR_RCOND = 1e-12
+CLASSES = (1, 2, 3)
+METRICS = ("iou", "iou_part", "iou_whole")
+
+
+def check_homography(homography: Any, image_size: tuple[int, int]) -> tuple[np.ndarray | None, str]:
+    """Validate a foreign estimate and fix its overall sign (SPEC §2, §8).
+
+    Args:
+        homography: anything a plug-in may return for one image: ideally a (3, 3)
+            array-like, bird's-eye → image, of any (possibly negative) scale.
+        image_size: ``(width, height)`` of the image.
+
+    Returns:
+        ``(H, "")`` with ``H`` a (3, 3) float64 homography whose depth sign is
+        right, or ``(None, reason)`` for a failure: ``"no estimate"``, ``"not
+        numeric"``, ``"wrong shape (…)"``, ``"non-finite entries"``, ``"singular"``.
+    """
+    if homography is None:
+        return None, "no estimate"
+    try:
+        H = np.asarray(homography, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None, "not numeric"
+    if H.shape != (3, 3):
+        return None, f"wrong shape {H.shape}"
+    if not np.isfinite(H).all():
+        return None, "non-finite entries"
+    singular_values = np.linalg.svd(H, compute_uv=False)
+    if not singular_values[2] > SINGULAR_RCOND * singular_values[0]:
+        return None, "singular"
+    return orient_homography(H[None], image_size)[0], ""
+
+
+def semantic_iou(predicted: np.ndarray, target: np.ndarray, classes: Sequence[int] = CLASSES) -> float:
+    """Mean per-class IoU over the classes present in either map.
+
+    Args:
+        predicted: (H, W) integer class map.
+        target: (H, W) integer class map.
+        classes: the class ids averaged over (background excluded by default).
+
+    Returns:
+        The mean IoU in [0, 1]; 1.0 when none of ``classes`` appears in either map.
+    """
+    n = int(max(predicted.max(initial=0), target.max(initial=0), max(classes))) + 1
+    # One bincount gives the confusion matrix: rows predicted, columns target.
+    confusion = np.bincount(
+        predicted.ravel().astype(np.int64) * n + target.ravel(), minlength=n * n
+    ).reshape(n, n)
+    classes = np.asarray(classes)
+    intersection = confusion[classes, classes]
+    union = confusion[classes].sum(1) + confusion[:, classes].sum(0) - intersection
+    present = union > 0
+    if not present.any():
+        return 1.0
+    return float(np.mean(intersection[present] / union[present]))
+
+
+def iou(
+    scene_semantic: np.ndarray,
+    H_est: Any,
+    H_true: np.ndarray,
+    image_size: tuple[int, int],
+    classes: Sequence[int] = CLASSES,
+) -> float:
+    """The paper's IoU: both views of the scene's semantic map, compared per class.
+
+    Args:
+        scene_semantic: (Hs, Ws) uint8 bird's-eye class map.
+        H_est: (3, 3) estimate, bird's-eye → image, any sign (checked, oriented).
+        H_true: (3, 3) true homography, bird's-eye → image, depth sign kept.
+        image_size: ``(width, height)`` of the image.
+        classes: class ids averaged over.
+
+    Returns:
+        IoU in [0, 1]; 0 for a failed estimate.
+    """
+    H, _ = check_homography(H_est, image_size)
+    if H is None:
+        return 0.0
+    predicted = render_semantic(scene_semantic, H, image_size)
+    target = render_semantic(scene_semantic, np.asarray(H_true, np.float64), image_size)
+    return semantic_iou(predicted, target, classes)
+
+
+# --- convex polygons -------------------------------------------------------------------
+
+
+def _rectangle(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    """(4, 2) counter-clockwise-in-image corners of an axis-aligned rectangle."""
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=np.float64)
+
+
+def _clip(polygon: np.ndarray, lines: np.ndarray) -> np.ndarray:
+    """Clip a convex polygon by half-planes ``a x + b y + c ≥ 0`` (Sutherland–Hodgman).
+
+    Args:
+        polygon: (n, 2) vertices in order.
+        lines: (m, 3) half-plane coefficients ``(a, b, c)``.
+
+    Returns:
+        (k, 2) vertices of the clipped polygon (k = 0 when empty).
+    """
+    for line in lines:
+        if len(polygon) == 0:
+            break
+        # Scale-free test: lines come from homographies of arbitrary scale.
+        line = line / max(np.abs(line).max(), np.finfo(float).tiny)
+        side = polygon @ line[:2] + line[2]
+        nxt_polygon, nxt_side = np.roll(polygon, -1, axis=0), np.roll(side, -1)
+        clipped = []
+        for p, q, sp, sq in zip(polygon, nxt_polygon, side, nxt_side):
+            if sp >= 0:
+                clipped.append(p)
+            if (sp >= 0) != (sq >= 0):
+                clipped.append(p + (sp / (sp - sq)) * (q - p))
+        polygon = np.array(clipped, dtype=np.float64).reshape(-1, 2)
+    return polygon
+
+
+def _area(polygon: np.ndarray) -> float:
+    """Area of a simple polygon (shoelace)."""
+    if len(polygon) < 3:
+        return 0.0
+    x, y = polygon[:, 0], polygon[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def _image_cone(image_size: tuple[int, int]) -> np.ndarray:
+    """(4, 3) rows ``e`` with ``e · p ≥ 0`` ⇔ homogeneous image point ``p`` inside the rectangle."""
+    width, height = image_size
+    return np.array([[1.0, 0, 0.5], [-1.0, 0, width - 0.5], [0, 1.0, 0.5], [0, -1.0, height - 0.5]])
+
+
+def _polygon_iou(region_a: np.ndarray, region_b: np.ndarray, lines_b: np.ndarray) -> float:
+    """IoU of convex polygons ``a`` and ``b``, where ``b`` is a polygon clipped by ``lines_b``."""
+    area_a, area_b = _area(region_a), _area(region_b)
+    intersection = _area(_clip(region_a, lines_b))
+    union = area_a + area_b - intersection
+    if union <= 0:
+        return 1.0
+    # Clipping a polygon by its own edges moves vertices by ~1e-16; rounding to 12
+    # digits lets an exact match score exactly 1 and changes nothing measurable.
+    return round(float(np.clip(intersection / union, 0.0, 1.0)), 12)
+
+
+def iou_part(
+    scene_shape: tuple[int, ...], H_est: Any, H_true: np.ndarray, image_size: tuple[int, int]
+) -> float:
+    """IoU, in the bird's-eye plane, of the ground seen by the image under truth and estimate.
+
+    Each region is the set of ground points that project inside the image
+    rectangle with positive depth, clipped to the scene rectangle
+    ``[-0.5, Ws - 0.5] × [-0.5, Hs - 0.5]``; areas are exact (module docstring).
+
+    Args:
+        scene_shape: ``(Hs, Ws, ...)`` shape of the bird's-eye scene (e.g.
+            ``scene_semantic.shape``).
+        H_est: (3, 3) estimate, bird's-eye → image, any sign (checked, oriented).
+        H_true: (3, 3) true homography, bird's-eye → image, depth sign kept.
+        image_size: ``(width, height)`` of the image.
+
+    Returns:
+        IoU in [0, 1]; 0 for a failed estimate.
+    """
+    H, _ = check_homography(H_est, image_size)
+    if H is None:
+        return 0.0
+    scene = _rectangle(-0.5, -0.5, scene_shape[1] - 0.5, scene_shape[0] - 0.5)
+    cone = _image_cone(image_size)
+    # Ground g is seen iff e · (H g) ≥ 0 for every row e: half-planes (e H) · g ≥ 0.
+    lines_true, lines_est = cone @ np.asarray(H_true, np.float64), cone @ H
+    return _polygon_iou(_clip(scene, lines_true), _clip(scene, lines_est), lines_est)
+
+
+def iou_whole(
+    H_est: Any, H_true: np.ndarray, image_size: tuple[int, int], canvas_scale: float = 4.0
+) -> float:
+    """IoU, in the image plane, of the image against its round trip truth → ground → estimate.
+
+    ``A`` is the part of the image rectangle that sees the ground under the truth;
+    ``B`` is ``A`` sent to the ground by ``H_true⁻¹`` and back by ``H_est``, keeping
+    only points in front of the estimated camera, and cropped to a canvas
+    ``canvas_scale`` times the image about its centre (module docstring).
+
+    Args:
+        H_est: (3, 3) estimate, bird's-eye → image, any sign (checked, oriented).
+        H_true: (3, 3) true homography, bird's-eye → image, depth sign kept.
+        image_size: ``(width, height)`` of the image.
+        canvas_scale: canvas size in image sizes (4 as in Jiang et al.'s code).
+
+    Returns:
+        IoU in [0, 1]; 0 for a failed estimate.
+    """
+    H, _ = check_homography(H_est, image_size)
+    if H is None:
+        return 0.0
+    width, height = image_size
+    H_true = np.asarray(H_true, np.float64)
+    cone = _image_cone(image_size)
+    # A: image pixels y with (H_true⁻¹ y)₃ > 0 (the renderer's cheirality test).
+    region_a = _clip(_rectangle(-0.5, -0.5, width - 0.5, height - 0.5), np.linalg.inv(H_true)[2:])
+    # B: y whose ground point g = H_est⁻¹ y is in front of the estimate (g₃ > 0) and
+    # is seen by the true camera inside the image: e · (H_true g) ≥ 0, which also
+    # implies a positive true depth. inv() keeps the sign, so both tests are linear.
+    H_est_inv = np.linalg.inv(H)
+    lines_b = np.vstack([H_est_inv[2:], cone @ H_true @ H_est_inv])
+    cx, cy, half = (width - 1) / 2.0, (height - 1) / 2.0, canvas_scale / 2.0
+    canvas = _rectangle(cx - half * width, cy - half * height, cx + half * width, cy + half * height)
+    return _polygon_iou(region_a, _clip(canvas, lines_b), lines_b)
+
+
+# --- batches -----------------------------------------------------------------------------
+
+
+def _estimate_items(H_est_batch: Any, n: int) -> list[Any]:
+    """Split whatever ``predict`` returned into ``n`` per-image estimates (or failure stand-ins)."""
+    if H_est_batch is None:
+        return [None] * n
+    if hasattr(H_est_batch, "detach"):  # a torch tensor, possibly on a GPU
+        H_est_batch = H_est_batch.detach().cpu().numpy()
+    try:
+        batch = np.asarray(H_est_batch, dtype=np.float64)
+    except (TypeError, ValueError):  # ragged or mixed with None: judge item by item
+        batch = None
+    if batch is not None and batch.shape == (n, 3, 3):
+        return list(batch)
+    if isinstance(H_est_batch, (list, tuple)) and len(H_est_batch) == n:
+        return list(H_est_batch)
+    shape = getattr(batch, "shape", None)
+    return [_BatchShapeError(f"wrong batch shape {shape}, expected ({n}, 3, 3)")] * n
+
+
+class _BatchShapeError:
+    """Marks every image of a batch whose overall shape is unusable."""
+
+    def __init__(self, reason: str) -> None:
+        self.reason = reason
+
+
+def evaluate(
+    scene_semantic: np.ndarray,
+    H_est_batch: Any,
+    H_true_batch: np.ndarray,
+    image_size: tuple[int, int],
+    classes: Sequence[int] = CLASSES,
+    canvas_scale: float = 4.0,
+) -> pd.DataFrame:
+    """All metrics for a batch of test images.
+
+    Args:
+        scene_semantic: (Hs, Ws) uint8 bird's-eye class map.
+        H_est_batch: (B, 3, 3) estimates from a plug-in (any sign; NumPy or a torch
+            tensor), or a length-B list whose entries may be None or malformed, or
+            None for no estimate.
+        H_true_batch: (B, 3, 3) true homographies, bird's-eye → image.
+        image_size: ``(width, height)`` of the images.
+        classes: class ids averaged over by ``iou``.
+        canvas_scale: canvas of ``iou_whole``.
+
+    Returns:
+        DataFrame with one row per test image and columns ``iou``, ``iou_part``,
+        ``iou_whole`` (float in [0, 1]), ``failed`` (bool) and ``failure`` (reason,
+        ``""`` if none). Failed estimates score 0 on every metric.
+    """
+    H_true_batch = np.asarray(H_true_batch, dtype=np.float64)
+    if H_true_batch.ndim != 3 or H_true_batch.shape[1:] != (3, 3):
+        raise ValueError(f"H_true_batch must be (B, 3, 3), got {H_true_batch.shape}")
+    rows = []
+    for estimate, H_true in zip(_estimate_items(H_est_batch, len(H_true_batch)), H_true_batch):
+        if isinstance(estimate, _BatchShapeError):
+            H, reason = None, estimate.reason
+        else:
+            H, reason = check_homography(estimate, image_size)
+        if H is None:
+            rows.append((0.0, 0.0, 0.0, True, reason))
+            continue
+        rows.append((
+            iou(scene_semantic, H, H_true, image_size, classes),
+            iou_part(scene_semantic.shape, H, H_true, image_size),
+            iou_whole(H, H_true, image_size, canvas_scale),
+            False,
+            "",
+        ))
+    frame = pd.DataFrame(rows, columns=[*METRICS, "failed", "failure"])
+    return frame.astype({"failed": bool, "failure": str})
+
+
+def completeness(per_image: pd.DataFrame) -> float:
+    """Fraction of test images with a usable estimate (1.0 for an empty frame)."""
+    return 1.0 - float(per_image["failed"].mean()) if len(per_image) else 1.0
+
+
+def summarize(per_image: pd.DataFrame) -> dict[str, float]:
+    """Means over test images (failures count as 0), completeness and the image count.
+
+    Args:
+        per_image: the frame returned by :func:`evaluate`.
+
+    Returns:
+        dict with ``iou``, ``iou_part``, ``iou_whole``, ``completeness``, ``n_images``.
+    """
+    summary = {name: float(per_image[name].mean()) for name in METRICS}
+    summary["completeness"] = completeness(per_image)
+    summary["n_images"] = float(len(per_image))
+    return summary

@@ -1,0 +1,337 @@
+"""The paper's three result tables, built from per-run results (SPEC §8).
+
+Input schema (one row per run, "tidy")
+--------------------------------------
+A run is one estimator configuration evaluated on one dataset with one split seed.
+
+=================  ======  ==========================================================
+column             needed  meaning
+=================  ======  ==========================================================
+``dataset``        yes     the paper's label: ``worldcup2014``, ``intersection-1`` …
+                           for a target's own dictionary, ``mixed-<k>`` for target
+                           ``intersection-<k>`` with a mixed dictionary (SPEC §6)
+``model``          yes     ``proposed``, ``sha2020`` (the baseline), ``template``,
+                           ``identity``, ``ecc`` or a plug-in's name
+``training``       no      ``end-to-end`` or ``step-by-step``
+``loss``           no      ``mse``, ``dice``, ``top-mse``, ``top-dice``
+``matching_score`` no      ``mse`` or ``top-mse``
+``seed``           yes     the split seed (the five cycles: 0–4)
+``iou`` …          yes     the mean over the run's test images of a metric of
+                           :func:`synthcal.eval.metrics.evaluate`, a fraction in
+                           [0, 1] (failures counted as 0); pick it with ``value``
+=================  ======  ==========================================================
+
+A missing optional column, or a missing value (estimators without training or
+loss), is shown as "–". Two rows with the same keys and seed are an error.
+
+Layouts (the paper's ``table`` values in ``paper_iou.csv``)
+-----------------------------------------------------------
+``matching``  own-dictionary datasets; one column per matching score.
+``models``    own-dictionary datasets; one column per model.
+``mixed``     mixed-dictionary datasets (``mixed-*``); one column per model.
+
+The rows are ``dataset`` followed by every other key that takes more than one
+value among the selected runs (so the paper's data gives rows dataset × training
+× loss in all three); keys with a single value are stated in the caption. Values
+appear in the paper's order (first appearance in ``paper_iou.csv``, the
+layout's own table first, so the baseline ``sha2020`` precedes ``proposed`` as in
+the paper's model tables), then unknown values alphabetically, "–" last.
+
+Cells
+-----
+IoU in percent, ``mean ± std`` over seeds with 2 decimals. ``std`` is the sample
+standard deviation (``ddof = 1``): the five seeds are five draws of the split,
+and the spread of *those draws* is what a reader compares against; a single
+seed shows the mean alone. The highest mean of a row (compared as displayed,
+so ties share it) is bold — Markdown ``**…**``, LaTeX ``\\textbf{…}`` — when the
+row has at least two values. ``compare_paper=True`` adds the published figure
+beside each column ("paper"), joined on every key.
+
+Example
+-------
+>>> import pandas as pd
+>>> runs = pd.DataFrame({"dataset": "intersection-1", "model": "proposed", "training": "end-to-end",
+...                      "loss": "top-mse", "matching_score": ["mse", "mse", "top-mse", "top-mse"],
+...                      "seed": [0, 1, 0, 1], "iou": [0.80, 0.82, 0.84, 0.86]})
+>>> text = format_table(runs, "matching")
+>>> for line in text.splitlines()[:3]:
+...     print(line)
+| dataset | mse | top-mse |
+|:---|---:|---:|
+| intersection-1 | 81.00 ± 1.41 | **85.00 ± 1.41** |
+>>> text.splitlines()[-1].split(". ")[-1]
+'model: proposed; training: end-to-end; loss: top-mse.'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["KEYS", "MISSING", "Layout", "LAYOUTS", "paper_results", "aggregate", "table_frame", "format_table"]
+
+KEYS = ("dataset", "model", "training", "loss", "matching_score")
+REQUIRED = ("dataset", "model", "seed")
+MISSING = "–"
+FORMATS = ("md", "latex", "csv")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """One of the paper's tables.
+
+    Attributes:
+        columns: the key spread over the columns.
+        mixed: True for mixed-dictionary datasets (``mixed-*``), False for the others.
+        title: what the table compares.
+    """
+
+    columns: str
+    mixed: bool
+    title: str
+
+
+LAYOUTS: dict[str, Layout] = {
+    "matching": Layout("matching_score", False, "matching scores"),
+    "models": Layout("model", False, "Sha et al.'s baseline and the proposed model"),
+    "mixed": Layout("model", True, "models with mixed dictionaries"),
+}
+
+
+@lru_cache(maxsize=1)
+def paper_results() -> pd.DataFrame:
+    """The paper's published IoU figures (``synthcal/data/paper_iou.csv``).
+
+    Returns:
+        DataFrame with columns ``table``, the five keys and ``iou_percent``.
+    """
+    with resources.files("synthcal").joinpath("data/paper_iou.csv").open("r", encoding="utf-8") as f:
+        return pd.read_csv(f)
+
+
+def _validate(results: pd.DataFrame, value: str) -> pd.DataFrame:
+    missing = [c for c in (*REQUIRED, value) if c not in results.columns]
+    if missing:
+        raise ValueError(f"results lack column(s) {missing}; have {list(results.columns)}")
+    frame = results.copy()
+    for key in KEYS:
+        frame[key] = frame[key].astype(object).where(frame[key].notna(), MISSING) if key in frame else MISSING
+        frame[key] = frame[key].astype(str)
+    values = pd.to_numeric(frame[value], errors="raise")
+    if ((values < 0) | (values > 1)).any():
+        raise ValueError(f"column {value!r} must be a fraction in [0, 1] (tables convert to percent)")
+    frame[value] = values
+    duplicated = frame.duplicated([*KEYS, "seed"], keep=False)
+    if duplicated.any():
+        raise ValueError(f"several results for the same keys and seed:\n{frame.loc[duplicated, [*KEYS, 'seed']]}")
+    return frame
+
+
+def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:
+    """Mean, standard deviation (ddof = 1) and count over seeds, in percent.
+
+    Args:
+        results: per-run results (module docstring).
+        value: the metric column.
+
+    Returns:
+        DataFrame with the five keys and ``mean``, ``std`` (NaN for one seed),
+        ``n_seeds``.
+    """
+    frame = _validate(results, value)
+    grouped = frame.groupby(list(KEYS), sort=False)[value]
+    out = grouped.agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count").reset_index()
+    out[["mean", "std"]] *= 100.0
+    return out
+
+
+def _order(values: pd.Series, key: str, layout: str) -> list[str]:
+    """Distinct values in the paper's order (this layout's table first), then the others sorted, "–" last."""
+    paper = paper_results()
+    paper = pd.concat([paper[paper["table"] == layout], paper[paper["table"] != layout]])
+    paper = list(dict.fromkeys(paper[key].astype(str)))
+    present = set(values)
+    known = [v for v in paper if v in present]
+    rest = sorted(present - set(known) - {MISSING})
+    return known + rest + ([MISSING] if MISSING in present else [])
+
+
+def _with_paper(
+    table: pd.DataFrame, varying: list[str], column_key: str, constants: dict, aliases: Mapping[str, str]
+) -> pd.DataFrame:
+    """Add a ``paper`` field to every cell of the grid, ours present or not."""
+    paper = paper_results().drop_duplicates(list(KEYS))
+    lookup = {tuple(map(str, key)): value
+              for key, value in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"])}
+    column_values = list(dict.fromkeys(table.columns.get_level_values(0)))
+    out = {}
+    for value in column_values:
+        figures = []
+        for row in table.index:
+            key = dict(constants, **dict(zip(varying, row if isinstance(row, tuple) else (row,))))
+            key[column_key] = value
+            key["dataset"] = aliases.get(key["dataset"], key["dataset"])
+            figures.append(lookup.get(tuple(key[k] for k in KEYS), np.nan))
+        out[value] = pd.concat([table[value], pd.Series(figures, index=table.index, name="paper")], axis=1)
+    return pd.concat(out, axis=1)
+
+
+def table_frame(
+    results: pd.DataFrame,
+    layout: str,
+    value: str = "iou",
+    compare_paper: bool = False,
+    aliases: Mapping[str, str] | None = None,
+) -> pd.DataFrame:
+    """One of the paper's tables as numbers.
+
+    Args:
+        results: per-run results (module docstring).
+        layout: ``matching``, ``models`` or ``mixed``.
+        value: the metric column (the paper reports ``iou`` only).
+        compare_paper: add the published figure (column ``paper``).
+        aliases: our dataset label → the paper's, for the join only (e.g.
+            ``{"soccer": "worldcup2014"}``).
+
+    Returns:
+        DataFrame indexed by the row keys, with column MultiIndex
+        ``(column value, field)``, fields ``mean``, ``std``, ``n_seeds`` and
+        optionally ``paper``; ``attrs["constants"]`` holds the single-valued keys,
+        ``attrs["layout"]`` the layout name.
+    """
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown layout {layout!r}; one of {sorted(LAYOUTS)}")
+    if compare_paper and value != "iou":
+        raise ValueError(f"the paper reports only 'iou', not {value!r}")
+    spec = LAYOUTS[layout]
+    cells = aggregate(results, value)
+    cells = cells[cells["dataset"].str.startswith("mixed-") == spec.mixed]
+    if cells.empty:
+        kind = "mixed-dictionary (mixed-*)" if spec.mixed else "own-dictionary"
+        raise ValueError(f"no {kind} results for layout {layout!r}")
+    fields = ["mean", "std", "n_seeds"]
+    varying = [k for k in KEYS if k != spec.columns and (k == "dataset" or cells[k].nunique() > 1)]
+    constants = {k: cells[k].iloc[0] for k in KEYS if k != spec.columns and k not in varying}
+    # Keys are unique per cell after aggregation, so unstacking loses nothing.
+    table = cells.set_index([*varying, spec.columns])[fields].unstack(spec.columns).swaplevel(0, 1, axis=1)
+    column_order = _order(cells[spec.columns], spec.columns, layout)
+    table = table.reindex(columns=pd.MultiIndex.from_product([column_order, fields]))
+    row_order = [_order(cells[k], k, layout) for k in varying]
+    present = set(map(tuple, cells[varying].to_numpy()))
+    rows = [r for r in pd.MultiIndex.from_product(row_order) if tuple(r) in present]
+    index = (pd.MultiIndex.from_tuples(rows, names=varying) if len(varying) > 1
+             else pd.Index([r[0] for r in rows], name=varying[0]))
+    table = table.reindex(index)
+    if compare_paper:
+        table = _with_paper(table, varying, spec.columns, constants, aliases or {})
+    table.columns.names = [spec.columns, "field"]
+    table.attrs.update(constants=constants, layout=layout, n_seeds=sorted(cells["n_seeds"].unique().tolist()))
+    return table
+
+
+# --- text ------------------------------------------------------------------------------
+
+
+def _cell(mean: float, std: float, n: float) -> str:
+    if pd.isna(mean):
+        return MISSING
+    return f"{mean:.2f}" if n < 2 or pd.isna(std) else f"{mean:.2f} ± {std:.2f}"
+
+
+def _latex_escape(text: str) -> str:
+    replacements = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
+                    "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
+                    "±": r"$\pm$", "–": "--"}
+    return "".join(replacements.get(ch, ch) for ch in text)
+
+
+def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[list[bool]]]:
+    """Header, display cells and bold flags (row keys first, repeated keys blanked)."""
+    column_values = list(dict.fromkeys(table.columns.get_level_values(0)))
+    compare = "paper" in table.columns.get_level_values(1)
+    header = list(table.index.names)
+    for value in column_values:
+        header += [value, f"{value} (paper)"] if compare else [value]
+    body, bold, previous = [], [], None
+    for key, row in table.iterrows():
+        key = key if isinstance(key, tuple) else (key,)
+        shown = [k if previous is None or key[: i + 1] != previous[: i + 1] else "" for i, k in enumerate(key)]
+        previous = key
+        means = np.array([round(row[(v, "mean")], 2) for v in column_values], dtype=float)
+        best = np.nanmax(means) if np.isfinite(means).sum() >= 2 else np.nan
+        cells, flags = list(shown), [False] * len(shown)
+        for value, mean in zip(column_values, means):
+            cells.append(_cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")]))
+            flags.append(bool(mean == best))
+            if compare:
+                paper = row[(value, "paper")]
+                cells.append(MISSING if pd.isna(paper) else f"{paper:.2f}")
+                flags.append(False)
+        body.append(cells)
+        bold.append(flags)
+    return header, body, bold
+
+
+def _caption(table: pd.DataFrame) -> str:
+    seeds = table.attrs.get("n_seeds", [])
+    n = str(seeds[0]) if len(seeds) == 1 else f"{min(seeds)}–{max(seeds)}" if seeds else "?"
+    columns = table.columns.names[0]
+    text = f"IoU (%) by {columns}, mean ± std over {n} seeds (std with ddof = 1); best per row in bold."
+    constants = table.attrs.get("constants", {})
+    if constants:
+        text += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."
+    return text
+
+
+def format_table(
+    results: pd.DataFrame,
+    layout: str,
+    fmt: str = "md",
+    value: str = "iou",
+    compare_paper: bool = False,
+    aliases: Mapping[str, str] | None = None,
+) -> str:
+    """One of the paper's tables as Markdown, LaTeX or CSV text.
+
+    Args:
+        results: per-run results (module docstring).
+        layout: ``matching``, ``models`` or ``mixed``.
+        fmt: ``md``, ``latex`` or ``csv`` (long form: the row keys, the column key,
+            ``mean``, ``std``, ``n_seeds`` and ``paper``, plain numbers).
+        value: the metric column.
+        compare_paper: add the published figures.
+        aliases: our dataset label → the paper's, for the join.
+
+    Returns:
+        The table as text.
+    """
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
+    table = table_frame(results, layout, value, compare_paper, aliases)
+    if fmt == "csv":
+        long = table.stack(level=0, future_stack=True).reset_index()
+        long["n_seeds"] = long["n_seeds"].astype("Int64")
+        return long.dropna(subset=[c for c in ("mean", "paper") if c in long], how="all").to_csv(index=False)
+    header, body, bold = _text_grid(table)
+    n_keys = table.index.nlevels
+    if fmt == "md":
+        def md(cell: str, strong: bool) -> str:
+            return f"**{cell}**" if strong else cell
+        lines = ["| " + " | ".join(header) + " |",
+                 "|" + "|".join([":---"] * n_keys + ["---:"] * (len(header) - n_keys)) + "|"]
+        lines += ["| " + " | ".join(md(c, b) for c, b in zip(cells, flags)) + " |"
+                  for cells, flags in zip(body, bold)]
+        return "\n".join(lines) + "\n\n" + _caption(table) + "\n"
+
+    def tex(cell: str, strong: bool) -> str:
+        return rf"\textbf{{{_latex_escape(cell)}}}" if strong else _latex_escape(cell)
+    lines = [rf"\begin{{tabular}}{{{'l' * n_keys}{'r' * (len(header) - n_keys)}}}", r"\hline",
+             " & ".join(_latex_escape(h) for h in header) + r" \\", r"\hline"]
+    lines += [" & ".join(tex(c, b) for c, b in zip(cells, flags)) + r" \\" for cells, flags in zip(body, bold)]
+    lines += [r"\hline", r"\end{tabular}", "% " + _latex_escape(_caption(table))]
+    return "\n".join(lines) + "\n"

@@ -8,12 +8,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from synthcal.generate.scenes import colorize
+
 __all__ = ["colorize", "overlay", "sample_strip", "tile", "write_png"]
-
-
-def colorize(semantic: np.ndarray, palette: np.ndarray | list) -> np.ndarray:
-    """(H, W) class ids → (H, W, 3) uint8 RGB using ``palette[class_id]``."""
-    return np.asarray(palette, dtype=np.uint8)[semantic]
 
 
 def overlay(image: np.ndarray, semantic: np.ndarray, palette: np.ndarray | list, alpha: float = 0.5) -> np.ndarray:

@@ -1,0 +1,54 @@
+"""Scenes: bird's-eye RGB images with their semantic maps (SPEC §4).
+
+Built-in scenes are procedural and deterministic (``build_scene``: the same name
+gives bit-identical, read-only arrays on every call and machine); user scenes are
+read from two PNG files (``load_user_scene``).
+
+Example
+-------
+>>> scene = build_scene("intersection-1")
+>>> scene.semantic.shape, scene.classes[3]
+((1900, 1300), 'bicycle path')
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+from .base import NUM_CLASSES, Scene, SceneError, colorize, draw_scene, freeze
+from .intersection import CLASSES as INTERSECTION_CLASSES
+from .intersection import LAYOUTS, PALETTE as INTERSECTION_PALETTE, PPM, build_intersection
+from .soccer import build_soccer
+from .user import load_user_scene
+
+__all__ = ["Scene", "SceneError", "BUILTIN_SCENES", "build_scene", "load_user_scene", "draw_scene", "colorize",
+           "NUM_CLASSES"]
+
+BUILTIN_SCENES: dict[str, str] = {
+    **{name: layout.description for name, layout in LAYOUTS.items()},
+    "soccer": "FIFA pitch 105 x 68 m from the World Cup 2014 line model; camera 45 m behind the touchline, 17 m up",
+}
+
+
+@lru_cache(maxsize=None)
+def build_scene(name: str) -> Scene:
+    """A built-in scene, built once per process.
+
+    Args:
+        name: a key of :data:`BUILTIN_SCENES`.
+
+    Returns:
+        The scene, its arrays read-only (shared by the cache).
+
+    Raises:
+        SceneError: unknown name.
+    """
+    if name in LAYOUTS:
+        image, semantic = build_intersection(LAYOUTS[name])
+        centre = LAYOUTS[name].centre
+        return Scene(name, freeze(image), freeze(semantic), INTERSECTION_CLASSES, INTERSECTION_PALETTE,
+                     heading_deg=0.0, camera_position=(centre[0], centre[1], 75.0), pixels_per_metre=PPM,
+                     description=BUILTIN_SCENES[name])
+    if name == "soccer":
+        return build_soccer(BUILTIN_SCENES[name])
+    raise SceneError(f"scene: unknown built-in scene {name!r}; built-in scenes: {', '.join(BUILTIN_SCENES)}")

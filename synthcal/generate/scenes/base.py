@@ -1,0 +1,125 @@
+"""The scene record shared by built-in and user scenes, and how to look at one.
+
+A scene is a bird's-eye RGB image and a semantic map of the same size (SPEC §2,
+§4): bird's-eye pixel ``(u, v)`` is ground point ``(x, y) = (u, v)``. Class ids
+are 0..3, 0 always being background.
+
+Example
+-------
+>>> import numpy as np
+>>> semantic = np.array([[0, 1], [2, 3]], np.uint8)
+>>> colorize(semantic, ((0, 0, 0), (9, 9, 9), (0, 200, 0), (200, 0, 0)))[1, 1].tolist()
+[200, 0, 0]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import cv2
+import numpy as np
+
+__all__ = ["Scene", "SceneError", "NUM_CLASSES", "colorize", "draw_scene", "freeze"]
+
+NUM_CLASSES = 4
+
+
+class SceneError(ValueError):
+    """A scene cannot be built or loaded; the message names the file, key and value."""
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A bird's-eye scene.
+
+    Attributes:
+        name: scene name (``intersection-3``, ``soccer`` or the user's key).
+        image: (Hs, Ws, 3) uint8 RGB bird's-eye view, read-only.
+        semantic: (Hs, Ws) uint8 class ids in 0..3 (0 = background), read-only.
+        classes: 4 class names, index = class id, ``classes[0] == "background"``.
+        palette: 4 RGB display colours, one per class.
+        heading_deg: added to every pan (SPEC §2).
+        camera_position: default ``(X, Y, Z)`` in bird's-eye pixels (``Z`` the
+            height), used when a grid leaves X/Y/Z to the scene; None if the scene
+            has none.
+        pixels_per_metre: ground scale of the bird's-eye image.
+        description: one line for listings.
+    """
+
+    name: str
+    image: np.ndarray
+    semantic: np.ndarray
+    classes: tuple[str, ...]
+    palette: tuple[tuple[int, int, int], ...]
+    heading_deg: float = 0.0
+    camera_position: tuple[float, float, float] | None = None
+    pixels_per_metre: float = 10.0
+    description: str = ""
+
+
+def freeze(array: np.ndarray) -> np.ndarray:
+    """``array`` made C-contiguous (copied only if needed) and read-only: cached scenes are shared."""
+    array = np.ascontiguousarray(array)
+    array.flags.writeable = False
+    return array
+
+
+def colorize(semantic: np.ndarray, palette: Sequence[Sequence[int]]) -> np.ndarray:
+    """Paint a class map with one colour per class.
+
+    Args:
+        semantic: (H, W) integer class ids.
+        palette: one RGB triple per class id.
+
+    Returns:
+        (H, W, 3) uint8 RGB.
+
+    Raises:
+        SceneError: a class id has no palette entry.
+    """
+    colours = np.asarray(palette, dtype=np.uint8).reshape(-1, 3)
+    semantic = np.asarray(semantic)
+    if semantic.size and int(semantic.max()) >= len(colours):
+        raise SceneError(f"semantic map holds class id {int(semantic.max())} but the palette has "
+                         f"only {len(colours)} colours")
+    return colours[semantic]
+
+
+def _legend(scene: Scene, width: int) -> np.ndarray:
+    """A strip with the scene name and one swatch + name per class, (h, width, 3) uint8."""
+    scale = max(0.6, width / 2200.0)
+    row = int(40 * scale)
+    strip = np.full((row * 2, width, 3), 255, np.uint8)
+    font, thick = cv2.FONT_HERSHEY_SIMPLEX, max(1, int(round(2 * scale)))
+    title = f"{scene.name}  ({scene.semantic.shape[1]} x {scene.semantic.shape[0]} px, " \
+            f"{scene.pixels_per_metre:g} px/m)"
+    cv2.putText(strip, title, (int(10 * scale), int(row * 0.7)), font, 0.8 * scale, (0, 0, 0), thick, cv2.LINE_AA)
+    x = int(10 * scale)
+    for class_id, (name, colour) in enumerate(zip(scene.classes, scene.palette)):
+        y0 = row + int(row * 0.15)
+        cv2.rectangle(strip, (x, y0), (x + int(row * 0.7), y0 + int(row * 0.7)), tuple(int(c) for c in colour), -1)
+        cv2.rectangle(strip, (x, y0), (x + int(row * 0.7), y0 + int(row * 0.7)), (0, 0, 0), 1)
+        label = f"{class_id} {name}"
+        cv2.putText(strip, label, (x + int(row * 0.9), row + int(row * 0.7)), font, 0.7 * scale, (0, 0, 0),
+                    thick, cv2.LINE_AA)
+        (tw, _), _ = cv2.getTextSize(label, font, 0.7 * scale, thick)
+        x += int(row * 0.9) + tw + int(row * 0.8)
+    return strip
+
+
+def draw_scene(scene: Scene) -> np.ndarray:
+    """The bird's-eye RGB beside its palette-coloured semantic map, with a legend.
+
+    Args:
+        scene: any scene.
+
+    Returns:
+        (Hs + legend, 2 Ws + gap, 3) uint8 RGB picture (written by ``synthcal scene``).
+    """
+    height, width = scene.semantic.shape
+    gap = max(8, width // 100)
+    panel = np.full((height, 2 * width + gap, 3), 255, np.uint8)
+    panel[:, :width] = scene.image
+    panel[:, width + gap:] = colorize(scene.semantic, scene.palette)
+    return np.concatenate([_legend(scene, panel.shape[1]), panel], axis=0)

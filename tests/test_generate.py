@@ -119,8 +119,8 @@ def test_a_torn_shard_is_redone(spec, reference, tmp_path, monkeypatch):
 
     real_write = pipeline.write_samples
 
-    def write_images_then_die(path, start, image, semantic):
-        real_write(path, start, image, np.zeros_like(semantic))
+    def write_images_then_die(path, shard, image, semantic):
+        real_write(path, shard, image, np.zeros_like(semantic))
         raise Crash
 
     monkeypatch.setattr(pipeline, "write_samples", write_images_then_die)

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 
 from synthcal.generate.camera import homography
-from synthcal.generate.render import Appearance, apply_appearance, render_image, render_semantic, visible_mask
+from synthcal.generate.render import Appearance, apply_appearance, mask_invisible, render_image, render_semantic, visible_mask
 
 SIZE = (64, 36)
 
@@ -85,3 +85,17 @@ def test_appearance_is_seeded_and_bounded():
     assert abs(a.astype(float).mean() - 120) <= 21
     untouched = apply_appearance(image, Appearance(), np.random.default_rng(3))
     np.testing.assert_array_equal(untouched, image)
+
+
+def test_mask_invisible_equals_the_full_mask():
+    rng = np.random.default_rng(0)
+    for k in range(20):
+        H = homography([rng.uniform(-180, 180)], [rng.uniform(-30, 10)], [rng.uniform(20, 300)],
+                       [[0.0, 0.0, 10.0]], SIZE)[0]
+        roll = 0.2 * k  # rotating the image makes the horizon slant across rows
+        H = np.array([[np.cos(roll), -np.sin(roll), 0], [np.sin(roll), np.cos(roll), 0], [0, 0, 1]]) @ H
+        for s in (1, 2):
+            image = np.full((SIZE[1] * s, SIZE[0] * s, 3), 7, np.uint8)
+            expected = image.copy()
+            expected[~visible_mask(H, SIZE, s)] = 0
+            np.testing.assert_array_equal(mask_invisible(image, H, s), expected)

@@ -32,6 +32,8 @@ import numpy as np
 import zarr
 from zarr.codecs import ZstdCodec
 
+from synthcal.generate.shardwrite import write_shard
+
 __all__ = [
     "FORMAT_VERSION",
     "CAMERA_FIELDS",
@@ -45,7 +47,7 @@ __all__ = [
 
 FORMAT_VERSION = "synthcal-store/1"
 CAMERA_FIELDS = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
-_COMPRESSOR = ZstdCodec(level=3)
+_COMPRESSOR = ZstdCodec(level=1)  # level 3 costs twice the time for 3 % smaller shards
 
 
 class StoreError(ValueError):
@@ -105,22 +107,23 @@ def create_store(
     group = zarr.create_group(zarr.storage.LocalStore(path), zarr_format=3, attributes=attributes)
     _sample_array(group, "image", (count, height, width, 3), "uint8", shard_size)
     _sample_array(group, "semantic", (count, height, width), "uint8", shard_size)
-    _sample_array(group, "homography", (count, 3, 3), "float64", shard_size)[:] = homography
-    for name in CAMERA_FIELDS:
-        _sample_array(group, f"camera/{name}", (count,), "float64", shard_size)[:] = camera[name]
-    _sample_array(group, "camera/grid_index", (count,), "int64", shard_size)[:] = camera["grid_index"]
+    per_sample = {"homography": homography, **{f"camera/{name}": camera[name] for name in CAMERA_FIELDS},
+                  "camera/grid_index": camera["grid_index"]}
+    for name, values in per_sample.items():
+        array = _sample_array(group, name, values.shape, values.dtype.str, shard_size)
+        for shard, start in enumerate(range(0, count, shard_size)):
+            write_shard(array, shard, values[start:start + shard_size])
     for name, array in (("scene/image", scene_image), ("scene/semantic", scene_semantic)):
         group.create_array(name, shape=array.shape, chunks=array.shape, dtype="uint8",
                            compressors=_COMPRESSOR, fill_value=0)[:] = array
     return group
 
 
-def write_samples(path: Path, start: int, image: np.ndarray, semantic: np.ndarray) -> None:
-    """Write rendered samples ``start : start + len(image)`` (whole shards)."""
+def write_samples(path: Path, shard: int, image: np.ndarray, semantic: np.ndarray) -> None:
+    """Write one shard's rendered samples, each array's shard file atomically."""
     group = zarr.open_group(zarr.storage.LocalStore(path), mode="r+", zarr_format=3)
-    stop = start + len(image)
-    group["image"][start:stop] = image
-    group["semantic"][start:stop] = semantic
+    write_shard(group["image"], shard, image)
+    write_shard(group["semantic"], shard, semantic)
 
 
 def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:

@@ -1,0 +1,85 @@
+"""Fast, atomic writes of whole shards of the store's per-sample arrays.
+
+Zarr-python encodes each inner chunk through its general asynchronous codec
+pipeline, which costs about as much as rendering the sample (≈ 0.7 ms per chunk at
+256 × 144). This module writes the very same bytes following the Zarr v3 sharding
+specification (``sharding_indexed``; inner codecs ``bytes`` + ``zstd``; index
+codecs ``bytes`` + ``crc32c`` at the end of the file): the Zstd frames of the
+chunks in order, then the ``(offset, nbytes)`` uint64 index and its CRC32C.
+Chunks equal to the fill value 0 are left out (Zarr's ``write_empty_chunks=False``),
+and a shard with no chunk at all has no file. Tests check the output byte for byte
+against Zarr's own encoder, and :mod:`synthcal.generate.shardread` reads it back.
+
+Each file goes to a temporary name first and is then renamed, so a shard is whole
+or absent.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import google_crc32c
+import numpy as np
+import zarr
+from numcodecs import Zstd
+
+__all__ = ["shard_file", "encode_shard", "write_shard"]
+
+_EMPTY = 2**64 - 1
+
+
+def shard_file(array_dir: Path, shard: int, ndim: int) -> Path:
+    """Path of shard ``shard`` of an array split along its first axis only."""
+    return Path(array_dir, "c", str(shard), *(["0"] * (ndim - 1)))
+
+
+def encode_shard(samples: np.ndarray, shard_size: int, level: int) -> bytes | None:
+    """The bytes of one shard file.
+
+    Args:
+        samples: (k, ...) the shard's samples, k ≤ ``shard_size`` (the last shard
+            of an array may hold fewer).
+        shard_size: inner chunks per shard.
+        level: Zstd level of the array's codec.
+
+    Returns:
+        the file's bytes, or None when every sample is all zeros (no file).
+    """
+    codec = Zstd(level=level, checksum=False)
+    index = np.full((shard_size, 2), _EMPTY, dtype="<u8")
+    frames, offset = [], 0
+    for k, sample in enumerate(samples):
+        if not sample.any():
+            continue
+        frame = codec.encode(np.ascontiguousarray(sample))
+        index[k] = (offset, len(frame))
+        frames.append(frame)
+        offset += len(frame)
+    if not frames:
+        return None
+    index_bytes = index.tobytes()
+    checksum = np.uint32(google_crc32c.value(index_bytes)).astype("<u4").tobytes()
+    return b"".join([*frames, index_bytes, checksum])
+
+
+def write_shard(array: zarr.Array, shard: int, samples: np.ndarray) -> None:
+    """Write samples ``shard · S : shard · S + len(samples)`` of ``array`` as one file.
+
+    ``array`` must be a local, sharded array with one sample per chunk and a
+    ``zstd`` inner codec, as :func:`synthcal.generate.store.create_store` makes.
+    """
+    meta = array.metadata.to_dict()
+    sharding = meta["codecs"][0]["configuration"]
+    level = next(c["configuration"]["level"] for c in sharding["codecs"] if c["name"] == "zstd")
+    shard_size = meta["chunk_grid"]["configuration"]["chunk_shape"][0]
+    root = Path(array.store_path.store.root) / array.store_path.path
+    path = shard_file(root, shard, array.ndim)
+    data = encode_shard(samples, shard_size, level)
+    if data is None:
+        path.unlink(missing_ok=True)
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)

@@ -1,0 +1,49 @@
+"""The fast shard writer produces Zarr's own bytes."""
+
+from pathlib import Path
+
+import numpy as np
+import zarr
+from zarr.codecs import ZstdCodec
+
+from synthcal.generate.shardwrite import write_shard
+
+
+def make_array(root: Path, name: str, shape, dtype, shard_size: int) -> zarr.Array:
+    group = zarr.open_group(zarr.storage.LocalStore(root), mode="a", zarr_format=3)
+    return group.create_array(name, shape=shape, chunks=(1, *shape[1:]), shards=(shard_size, *shape[1:]),
+                              dtype=dtype, compressors=ZstdCodec(level=3), fill_value=0)
+
+
+def files(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def test_same_bytes_as_zarr(tmp_path):
+    rng = np.random.default_rng(0)
+    cases = {
+        "image": rng.integers(0, 256, (11, 6, 5, 3), dtype=np.uint8),
+        "semantic": rng.integers(0, 4, (11, 6, 5), dtype=np.uint8),
+        "homography": rng.normal(size=(11, 3, 3)),
+        "grid_index": rng.integers(0, 10**6, 11).astype(np.int64),
+    }
+    cases["image"][2] = 0  # an all-fill chunk is left out of its shard
+    cases["semantic"][4:8] = 0  # a whole shard of fill values has no file
+    for name, values in cases.items():
+        ours = make_array(tmp_path / "ours", name, values.shape, values.dtype, 4)
+        theirs = make_array(tmp_path / "zarr", name, values.shape, values.dtype, 4)
+        theirs[:] = values
+        for shard, start in enumerate(range(0, len(values), 4)):  # the last shard holds 3 samples
+            write_shard(ours, shard, values[start:start + 4])
+        np.testing.assert_array_equal(ours[:], values)
+    assert files(tmp_path / "ours") == files(tmp_path / "zarr")
+    assert not (tmp_path / "ours" / "semantic" / "c" / "1").exists()
+
+
+def test_rewrite_replaces_the_file_whole(tmp_path):
+    values = np.arange(8 * 4, dtype=np.uint8).reshape(8, 4) + 1
+    array = make_array(tmp_path, "a", values.shape, values.dtype, 4)
+    write_shard(array, 1, values[4:])
+    write_shard(array, 1, values[4:] * 2)
+    np.testing.assert_array_equal(array[4:], values[4:] * 2)
+    assert [p.name for p in (tmp_path / "a" / "c" / "1").iterdir()] == ["0"]  # no temporary left behind

@@ -14,7 +14,7 @@ import hashlib
 import json
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
@@ -27,6 +27,8 @@ __all__ = [
     "SplitSizes",
     "UserSceneConfig",
     "DatasetConfig",
+    "TrainingSettings",
+    "TrainingProfile",
     "ProfileConfig",
     "Config",
     "DatasetSpec",
@@ -129,14 +131,41 @@ class UserSceneConfig(_Strict):
 
 
 class DatasetConfig(_Strict):
-    """One dataset: a scene, a grid and a pool size (other keys override defaults)."""
+    """One dataset: a scene and its cameras (other keys override defaults).
+
+    The cameras come from exactly one of ``grid:`` (sampled: ``pool_size`` of them)
+    or ``poses:`` (given: the real broadcast cameras of ``worldcup2014``, whose
+    pool is all of them and whose train/test sets are fixed). ``dictionary_from``
+    names the datasets whose pools provide the dictionary instead of this dataset's
+    own pool (a mixed dictionary, SPEC §6); a ``poses:`` dataset needs it.
+    """
 
     scene: str
-    grid: str
-    pool_size: int = Field(ge=1)
+    grid: str | None = None
+    poses: Literal["worldcup2014"] | None = None
+    pool_size: int | None = Field(None, ge=1)
+    dictionary_from: tuple[str, ...] | None = None
     seed: int | None = None
     image_size: tuple[int, int] | None = None
     splits: SplitSizes | None = None
+
+    @field_validator("dictionary_from", mode="before")
+    @classmethod
+    def _one_or_many(cls, value: Any) -> Any:
+        return (value,) if isinstance(value, str) else value
+
+    @model_validator(mode="after")
+    def _cameras(self) -> "DatasetConfig":
+        if (self.grid is None) == (self.poses is None):
+            given = "both" if self.grid is not None else "neither"
+            raise ValueError(f"give exactly one of grid: (sampled cameras) or poses: (given cameras), got {given}")
+        if self.grid is not None and self.pool_size is None:
+            raise ValueError("pool_size is required with grid:")
+        if self.poses is not None and self.pool_size is not None:
+            raise ValueError(f"pool_size: the poses {self.poses!r} fix the pool; leave pool_size out")
+        if self.poses is not None and not self.dictionary_from:
+            raise ValueError(f"poses {self.poses!r}: every pose is in train or test, so dictionary_from: is required")
+        return self
 
 
 class Defaults(_Strict):
@@ -157,14 +186,66 @@ class Defaults(_Strict):
         return size
 
 
+class TrainingSettings(_Strict):
+    """Network sizes and schedules of the bundled models (SPEC §7) under one profile.
+
+    ``work_size`` is the ``(width, height)`` at which the networks see maps and
+    images (None: the store's image size); a smaller one trades accuracy for
+    speed on a CPU, and homographies are converted exactly between the two
+    resolutions. ``max_train`` caps the train images used (the first ones of the
+    split, which is itself a random draw). Epoch counts are per stage of
+    step-by-step training; ``end_to_end_epochs`` is the whole end-to-end
+    schedule, whose warm-up thresholds (SPEC §7: 20 and 40 of the paper's 100)
+    scale with it (:func:`synthcal.eval.training.end_to_end_stage`).
+    """
+
+    work_size: tuple[int, int] | None = None
+    max_train: int | None = Field(None, ge=1)
+    batch_size: int = Field(16, ge=1)
+    learning_rate: float = Field(1e-3, gt=0)
+    unet_width: int = Field(16, ge=1)
+    unet_depth: int = Field(4, ge=1)
+    unet_epochs: int = Field(20, ge=1)
+    siamese_width: int = Field(32, ge=1)
+    embedding_dim: int = Field(128, ge=2)
+    siamese_epochs: int = Field(20, ge=1)
+    stn_width: int = Field(32, ge=1)
+    stn_epochs: int = Field(40, ge=1)
+    end_to_end_epochs: int = Field(100, ge=3)
+
+    @field_validator("work_size")
+    @classmethod
+    def _work_size(cls, size: tuple[int, int] | None) -> tuple[int, int] | None:
+        if size is not None and min(size) < 16:
+            raise ValueError(f"work_size must be at least 16 × 16 pixels, got {list(size)}")
+        return size
+
+
+class TrainingProfile(TrainingSettings):
+    """A profile's ``training:`` block: the settings and the default segmentation.
+
+    ``segmentation: ground-truth`` feeds true semantic maps to the matching and STN
+    stages instead of a trained UNet's (SPEC §7, "Optional segmentation"); the
+    command line's ``--segmentation`` overrides it.
+    """
+
+    segmentation: Literal["unet", "ground-truth"] = "unet"
+
+    def settings(self) -> dict[str, Any]:
+        """The :class:`TrainingSettings` fields as a plain dict (what estimators take)."""
+        return self.model_dump(mode="json", exclude={"segmentation"})
+
+
 class ProfileConfig(_Strict):
-    """Overrides applied to every dataset: sizes for tests, laptops or the paper."""
+    """Overrides applied to every dataset: sizes for tests, laptops or the paper,
+    and the sizes of the bundled models (``training:``)."""
 
     image_size: tuple[int, int] | None = None
     shard_size: int | None = Field(None, ge=1)
     max_pool_size: int | None = Field(None, ge=1)
     supersample: int | None = Field(None, ge=1, le=8)
     splits: SplitSizes | None = None
+    training: TrainingProfile | None = None
 
 
 class Config(_Strict):
@@ -173,16 +254,25 @@ class Config(_Strict):
     grids: dict[str, GridConfig]
     scenes: dict[str, UserSceneConfig] = {}
     datasets: dict[str, DatasetConfig]
+    # target dataset → the datasets whose pools give its mixed dictionary (SPEC §6)
+    mixed_dictionaries: dict[str, tuple[str, ...]] = {}
     profiles: dict[str, ProfileConfig] = {}
 
 
 class DatasetSpec(_Strict):
-    """Everything that determines a generated store's arrays."""
+    """Everything that determines a generated store's arrays, and its splits.
+
+    ``grid`` is None for a dataset of given ``poses``. ``mixed_sources`` lists the
+    datasets whose pools give the mixed dictionary (empty: none);
+    ``own_dictionary`` is False when the dictionary comes only from them
+    (``dictionary_from``).
+    """
 
     name: str
     scene: str
     user_scene: UserSceneConfig | None
-    grid: GridConfig
+    grid: GridConfig | None
+    poses: str | None = None
     pool_size: int
     seed: int
     image_size: tuple[int, int]
@@ -192,14 +282,20 @@ class DatasetSpec(_Strict):
     appearance: AppearanceConfig
     splits: SplitSizes
     split_seeds: tuple[int, ...]
+    mixed_sources: tuple[str, ...] = ()
+    own_dictionary: bool = True
 
     def config_hash(self) -> str:
         """SHA-256 of the canonical JSON of what determines the pool's arrays.
 
-        Split sizes and seeds are left out: splits are drawn later, inside the
-        store, and changing them must not invalidate a generated pool.
+        Split sizes, seeds and dictionary sources are left out: splits are drawn
+        later, inside the store, and changing them must not invalidate a generated
+        pool. ``poses`` is left out when unset, so grid datasets keep their hash.
         """
-        pool = self.model_dump(mode="json", exclude={"splits", "split_seeds"})
+        exclude = {"splits", "split_seeds", "mixed_sources", "own_dictionary"}
+        if self.poses is None:
+            exclude.add("poses")
+        pool = self.model_dump(mode="json", exclude=exclude)
         text = json.dumps(pool, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
@@ -261,7 +357,11 @@ class LoadedConfig:
         entry = cfg.datasets[dataset]
         prof = cfg.profiles[profile] if profile is not None else ProfileConfig()
         d = cfg.defaults
-        pool = entry.pool_size if prof.max_pool_size is None else min(entry.pool_size, prof.max_pool_size)
+        splits = prof.splits or entry.splits or d.splits
+        if entry.poses is not None:
+            pool, splits = self._pose_pool(dataset, entry, splits, pool_size)
+        else:
+            pool = entry.pool_size if prof.max_pool_size is None else min(entry.pool_size, prof.max_pool_size)
         if pool_size is not None:
             if pool_size < 1:
                 raise ConfigError(f"--n: the pool size must be ≥ 1 (value {pool_size})")
@@ -270,7 +370,8 @@ class LoadedConfig:
             name=dataset,
             scene=entry.scene,
             user_scene=cfg.scenes.get(entry.scene),
-            grid=cfg.grids[entry.grid],
+            grid=None if entry.grid is None else cfg.grids[entry.grid],
+            poses=entry.poses,
             pool_size=pool,
             seed=d.seed if entry.seed is None else entry.seed,
             image_size=prof.image_size or entry.image_size or d.image_size,
@@ -278,9 +379,13 @@ class LoadedConfig:
             shard_size=prof.shard_size or d.shard_size,
             supersample=prof.supersample or d.supersample,
             appearance=d.appearance,
-            splits=prof.splits or entry.splits or d.splits,
+            splits=splits,
             split_seeds=d.split_seeds,
+            mixed_sources=entry.dictionary_from or cfg.mixed_dictionaries.get(dataset, ()),
+            own_dictionary=entry.dictionary_from is None,
         )
+        if spec.grid is None:
+            return spec
         from synthcal.generate.grid import grid_size  # late import: grid imports config
 
         size = grid_size(spec.grid)
@@ -291,18 +396,87 @@ class LoadedConfig:
             )
         return spec
 
+    def training(self, profile: str | None = None) -> TrainingProfile:
+        """The ``training:`` block of a profile (the built-in defaults without one).
+
+        Raises:
+            ConfigError: unknown profile.
+        """
+        if profile is None:
+            return TrainingProfile()
+        if profile not in self.config.profiles:
+            raise ConfigError(
+                f"{self.path}: profiles.{profile}: unknown profile {profile!r}; "
+                f"known: {', '.join(self.config.profiles)}"
+            )
+        return self.config.profiles[profile].training or TrainingProfile()
+
+    def _pose_pool(
+        self, dataset: str, entry: DatasetConfig, splits: SplitSizes, pool_size: int | None
+    ) -> tuple[int, SplitSizes]:
+        """Pool size and split sizes of a dataset of given poses.
+
+        The pool is every pose (profiles do not cap it) and train/test are the
+        poses' own partition; only the dictionary size comes from the profile,
+        the entry or the defaults.
+        """
+        from synthcal.generate.worldcup import pose_partition  # late import: heavy, and imports config
+
+        key = f"{self.path}: datasets.{dataset}"
+        if pool_size is not None:
+            raise ConfigError(f"{key}: --n: the poses {entry.poses!r} fix the pool size (value {pool_size})")
+        partition = pose_partition(entry.poses)
+        fixed = {name: len(index) for name, index in partition.items()}
+        if entry.splits is not None:
+            for name in sorted(entry.splits.model_fields_set & set(fixed)):
+                value = getattr(entry.splits, name)
+                if value != fixed[name]:
+                    raise ConfigError(
+                        f"{key}.splits.{name}: the poses {entry.poses!r} fix {name} at {fixed[name]} (value {value})"
+                    )
+        return sum(fixed.values()), splits.model_copy(update=fixed)
+
 
 def _check_references(path: Path, config: Config) -> None:
     from synthcal.generate.scenes import BUILTIN_SCENES
 
     for name, entry in config.datasets.items():
-        if entry.grid not in config.grids:
+        for source in entry.dictionary_from or ():
+            if source not in config.datasets or source == name:
+                raise ConfigError(
+                    f"{path}: datasets.{name}.dictionary_from: {source!r} must be another dataset; "
+                    f"known: {', '.join(config.datasets)}"
+                )
+        if entry.dictionary_from and name in config.mixed_dictionaries:
+            raise ConfigError(
+                f"{path}: mixed_dictionaries.{name}: the dataset already takes its dictionary from "
+                f"datasets.{name}.dictionary_from (value {list(config.mixed_dictionaries[name])})"
+            )
+        if entry.poses == "worldcup2014" and entry.scene != "soccer":
+            raise ConfigError(
+                f"{path}: datasets.{name}.scene: the poses 'worldcup2014' are World Cup broadcast cameras "
+                f"over the 'soccer' scene (value {entry.scene!r})"
+            )
+        if entry.grid is not None and entry.grid not in config.grids:
             raise ConfigError(
                 f"{path}: datasets.{name}.grid: unknown grid {entry.grid!r}; known: {', '.join(config.grids)}"
             )
         if entry.scene not in config.scenes and entry.scene not in BUILTIN_SCENES:
             known = ", ".join([*BUILTIN_SCENES, *config.scenes])
             raise ConfigError(f"{path}: datasets.{name}.scene: unknown scene {entry.scene!r}; known: {known}")
+    for target, sources in config.mixed_dictionaries.items():
+        if target not in config.datasets:
+            raise ConfigError(
+                f"{path}: mixed_dictionaries.{target}: unknown dataset {target!r}; known: {', '.join(config.datasets)}"
+            )
+        if not sources or len(set(sources)) != len(sources):
+            raise ConfigError(f"{path}: mixed_dictionaries.{target}: list distinct source datasets (value {list(sources)})")
+        for source in sources:
+            if source not in config.datasets or source == target:
+                raise ConfigError(
+                    f"{path}: mixed_dictionaries.{target}: {source!r} must be another dataset "
+                    f"(value {list(sources)}); known: {', '.join(config.datasets)}"
+                )
 
 
 def load_config(path: str | Path | None = None) -> LoadedConfig:

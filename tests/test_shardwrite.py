@@ -4,22 +4,25 @@ from pathlib import Path
 
 import numpy as np
 import zarr
-from zarr.codecs import ZstdCodec
+import pytest
+from zarr.codecs import BloscCodec, ZstdCodec
 
 from synthcal.generate.shardwrite import write_shard
 
 
-def make_array(root: Path, name: str, shape, dtype, shard_size: int) -> zarr.Array:
+def make_array(root: Path, name: str, shape, dtype, shard_size: int, compressor=None) -> zarr.Array:
     group = zarr.open_group(zarr.storage.LocalStore(root), mode="a", zarr_format=3)
     return group.create_array(name, shape=shape, chunks=(1, *shape[1:]), shards=(shard_size, *shape[1:]),
-                              dtype=dtype, compressors=ZstdCodec(level=3), fill_value=0)
+                              dtype=dtype, compressors=compressor or ZstdCodec(level=3), fill_value=0)
 
 
 def files(root: Path) -> dict[str, bytes]:
     return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
-def test_same_bytes_as_zarr(tmp_path):
+@pytest.mark.parametrize("compressor", [ZstdCodec(level=3), BloscCodec(cname="lz4", clevel=5, shuffle="shuffle")],
+                         ids=["zstd", "blosc-lz4"])
+def test_same_bytes_as_zarr(tmp_path, compressor):
     rng = np.random.default_rng(0)
     cases = {
         "image": rng.integers(0, 256, (11, 6, 5, 3), dtype=np.uint8),
@@ -30,8 +33,8 @@ def test_same_bytes_as_zarr(tmp_path):
     cases["image"][2] = 0  # an all-fill chunk is left out of its shard
     cases["semantic"][4:8] = 0  # a whole shard of fill values has no file
     for name, values in cases.items():
-        ours = make_array(tmp_path / "ours", name, values.shape, values.dtype, 4)
-        theirs = make_array(tmp_path / "zarr", name, values.shape, values.dtype, 4)
+        ours = make_array(tmp_path / "ours", name, values.shape, values.dtype, 4, compressor)
+        theirs = make_array(tmp_path / "zarr", name, values.shape, values.dtype, 4, compressor)
         theirs[:] = values
         for shard, start in enumerate(range(0, len(values), 4)):  # the last shard holds 3 samples
             write_shard(ours, shard, values[start:start + 4])

@@ -8,6 +8,10 @@ configuration alone, never on the number of workers or the order shards finish i
 Resuming: the store grows under ``NAME.zarr.partial``; each finished shard leaves a
 marker in ``.NAME.zarr.progress/``; a rerun with the same configuration renders only
 the shards without a marker, and the last step renames the store to ``NAME.zarr``.
+
+Cameras come from a grid (sampled, SPEC §3) or, for a dataset of given ``poses``,
+from real homographies (:mod:`synthcal.generate.worldcup`); :func:`plan_cameras`
+is the one place that tells them apart.
 """
 
 from __future__ import annotations
@@ -28,11 +32,11 @@ from tqdm.auto import tqdm
 from synthcal.config import ConfigError, DatasetSpec
 from synthcal.generate.camera import homography as camera_homography
 from synthcal.generate.grid import CameraSamples, sample_cameras
-from synthcal.generate.render import Appearance, apply_appearance, render_image, render_semantic, visible_mask
+from synthcal.generate.render import Appearance, apply_appearance, mask_invisible, render_image, render_semantic
 from synthcal.generate.scenes import Scene, build_scene, load_user_scene
 from synthcal.generate.store import CAMERA_FIELDS, FORMAT_VERSION, create_store, software_versions, write_samples
 
-__all__ = ["load_scene", "plan_homographies", "render_samples", "generate_dataset", "store_path"]
+__all__ = ["load_scene", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset", "store_path"]
 
 
 def load_scene(spec: DatasetSpec) -> Scene:
@@ -53,6 +57,8 @@ def _cached_scene(key: str, spec: DatasetSpec) -> Scene:
 
 
 def _check_grid_inside_scene(spec: DatasetSpec, scene: Scene) -> None:
+    if spec.grid is None:
+        return
     height, width = scene.semantic.shape
     for axis, limit in (("x", width - 1), ("y", height - 1)):
         values = getattr(spec.grid, axis)
@@ -72,6 +78,23 @@ def plan_homographies(spec: DatasetSpec, scene: Scene, cameras: CameraSamples) -
     pan, tilt, focal, x, y, z = cameras.values.T
     scale = spec.image_size[0] / spec.focal_reference_width
     return camera_homography(pan + scene.heading_deg, tilt, focal * scale, np.stack([x, y, z], -1), spec.image_size)
+
+
+def plan_cameras(spec: DatasetSpec, scene: Scene) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The pool's cameras: sampled from the grid, or the dataset's given poses.
+
+    Returns:
+        camera fields (``CAMERA_FIELDS`` as (N,) float64, ``grid_index`` (N,)
+        int64; −1 for given poses) and (N, 3, 3) homographies at the output size.
+    """
+    if spec.poses is not None:
+        from synthcal.generate.worldcup import plan_poses
+
+        return plan_poses(spec, scene)
+    cameras = sample_cameras(spec.grid, spec.pool_size, spec.seed, scene.camera_position)
+    camera = {name: cameras.values[:, i] for i, name in enumerate(CAMERA_FIELDS)}
+    camera["grid_index"] = cameras.grid_index
+    return camera, plan_homographies(spec, scene, cameras)
 
 
 def sample_rng(seed: int, index: int) -> np.random.Generator:
@@ -94,8 +117,7 @@ def render_samples(
     for k, H in enumerate(homographies):
         image = render_image(scene.image, H, spec.image_size, spec.supersample)
         image = apply_appearance(image, appearance, sample_rng(spec.seed, first_index + k))
-        image[~visible_mask(H, spec.image_size)] = 0  # the sky stays black after blur/brightness
-        images[k] = image
+        images[k] = mask_invisible(image, H)  # the sky stays black after blur and brightness
         semantics[k] = render_semantic(scene.semantic, H, spec.image_size)
     return images, semantics
 
@@ -120,7 +142,7 @@ def run_shard(task: ShardTask) -> int:
     cv2.setNumThreads(1)  # one process per core: OpenCV's own threads would oversubscribe
     scene = load_scene(task.spec)
     images, semantics = render_samples(scene, task.homographies, task.start, task.spec)
-    write_samples(task.store, task.start, images, semantics)
+    write_samples(task.store, task.shard, images, semantics)
     task.done_marker().touch()
     return len(images)
 
@@ -131,6 +153,8 @@ def store_path(out_dir: Path, dataset: str) -> Path:
 
 
 def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
+    from synthcal.generate.worldcup import pose_attributes
+
     return {
         "format_version": FORMAT_VERSION,
         "dataset": spec.name,
@@ -140,7 +164,8 @@ def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
             "camera_position": None if scene.camera_position is None else list(scene.camera_position),
             "description": scene.description,
         },
-        "grid": spec.grid.model_dump(mode="json"),
+        "grid": None if spec.grid is None else spec.grid.model_dump(mode="json"),
+        "poses": None if spec.poses is None else pose_attributes(spec.poses),
         "N": spec.pool_size,
         "seed": spec.seed,
         "image_size": list(spec.image_size),
@@ -163,10 +188,7 @@ def _prepare_partial(spec: DatasetSpec, scene: Scene, partial: Path, progress: P
                 f"(config_hash {group.attrs.get('config_hash')!r}); delete it or choose another --out"
             )
         return group["homography"][:]
-    cameras = sample_cameras(spec.grid, spec.pool_size, spec.seed, scene.camera_position)
-    homographies = plan_homographies(spec, scene, cameras)
-    camera = {name: cameras.values[:, i] for i, name in enumerate(CAMERA_FIELDS)}
-    camera["grid_index"] = cameras.grid_index
+    camera, homographies = plan_cameras(spec, scene)
     # Build the skeleton under a scratch name so a crash here leaves nothing to resume from.
     scratch = partial.with_name(partial.name + ".creating")
     shutil.rmtree(scratch, ignore_errors=True)

@@ -3,9 +3,9 @@
 Zarr-python encodes each inner chunk through its general asynchronous codec
 pipeline, which costs about as much as rendering the sample (≈ 0.7 ms per chunk at
 256 × 144). This module writes the very same bytes following the Zarr v3 sharding
-specification (``sharding_indexed``; inner codecs ``bytes`` + ``zstd``; index
-codecs ``bytes`` + ``crc32c`` at the end of the file): the Zstd frames of the
-chunks in order, then the ``(offset, nbytes)`` uint64 index and its CRC32C.
+specification (``sharding_indexed``; inner codecs ``bytes`` + ``blosc`` or
+``zstd``; index codecs ``bytes`` + ``crc32c`` at the end of the file): the
+compressed chunks in order, then the ``(offset, nbytes)`` uint64 index and its CRC32C.
 Chunks equal to the fill value 0 are left out (Zarr's ``write_empty_chunks=False``),
 and a shard with no chunk at all has no file. Tests check the output byte for byte
 against Zarr's own encoder, and :mod:`synthcal.generate.shardread` reads it back.
@@ -22,7 +22,8 @@ from pathlib import Path
 import google_crc32c
 import numpy as np
 import zarr
-from numcodecs import Zstd
+from numcodecs import Blosc, Zstd
+from numcodecs.abc import Codec
 
 __all__ = ["shard_file", "encode_shard", "write_shard"]
 
@@ -34,19 +35,32 @@ def shard_file(array_dir: Path, shard: int, ndim: int) -> Path:
     return Path(array_dir, "c", str(shard), *(["0"] * (ndim - 1)))
 
 
-def encode_shard(samples: np.ndarray, shard_size: int, level: int) -> bytes | None:
+_SHUFFLE = {"noshuffle": Blosc.NOSHUFFLE, "shuffle": Blosc.SHUFFLE, "bitshuffle": Blosc.BITSHUFFLE}
+
+
+def inner_codec(config: dict) -> Codec:
+    """The numcodecs compressor of a Zarr v3 ``zstd`` or ``blosc`` codec entry."""
+    name, options = config["name"], config.get("configuration", {})
+    if name == "zstd":
+        return Zstd(level=options["level"], checksum=options.get("checksum", False))
+    if name == "blosc":
+        return Blosc(cname=options["cname"], clevel=options["clevel"], shuffle=_SHUFFLE[options["shuffle"]],
+                     blocksize=options.get("blocksize", 0), typesize=options["typesize"])
+    raise ValueError(f"no fast shard writer for the {name!r} codec")
+
+
+def encode_shard(samples: np.ndarray, shard_size: int, codec: Codec) -> bytes | None:
     """The bytes of one shard file.
 
     Args:
         samples: (k, ...) the shard's samples, k ≤ ``shard_size`` (the last shard
             of an array may hold fewer).
         shard_size: inner chunks per shard.
-        level: Zstd level of the array's codec.
+        codec: the array's inner compressor (:func:`inner_codec`).
 
     Returns:
         the file's bytes, or None when every sample is all zeros (no file).
     """
-    codec = Zstd(level=level, checksum=False)
     index = np.full((shard_size, 2), _EMPTY, dtype="<u8")
     frames, offset = [], 0
     for k, sample in enumerate(samples):
@@ -67,15 +81,16 @@ def write_shard(array: zarr.Array, shard: int, samples: np.ndarray) -> None:
     """Write samples ``shard · S : shard · S + len(samples)`` of ``array`` as one file.
 
     ``array`` must be a local, sharded array with one sample per chunk and a
-    ``zstd`` inner codec, as :func:`synthcal.generate.store.create_store` makes.
+    ``blosc`` or ``zstd`` inner codec, as :func:`synthcal.generate.store.create_store`
+    makes.
     """
     meta = array.metadata.to_dict()
     sharding = meta["codecs"][0]["configuration"]
-    level = next(c["configuration"]["level"] for c in sharding["codecs"] if c["name"] == "zstd")
+    _, compressor = sharding["codecs"]  # ("bytes", the compressor)
     shard_size = meta["chunk_grid"]["configuration"]["chunk_shape"][0]
     root = Path(array.store_path.store.root) / array.store_path.path
     path = shard_file(root, shard, array.ndim)
-    data = encode_shard(samples, shard_size, level)
+    data = encode_shard(samples, shard_size, inner_codec(compressor))
     if data is None:
         path.unlink(missing_ok=True)
         return

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 import zarr
-from zarr.codecs import ZstdCodec
+from zarr.codecs import BloscCodec
 
 from synthcal.generate.shardwrite import write_shard
 
@@ -47,7 +47,9 @@ __all__ = [
 
 FORMAT_VERSION = "synthcal-store/1"
 CAMERA_FIELDS = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
-_COMPRESSOR = ZstdCodec(level=1)  # level 3 costs twice the time for 3 % smaller shards
+# LZ4 rather than Zstd: a third larger, but it both encodes and decodes several times
+# faster, and reading a split must stay within a few times numpy.load of raw arrays.
+_COMPRESSOR = BloscCodec(cname="lz4", clevel=5, shuffle="shuffle")
 
 
 class StoreError(ValueError):

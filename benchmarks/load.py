@@ -1,0 +1,102 @@
+"""Loading a split: ``synthcal.data.load_split`` against ``numpy.load``.
+
+Generates (once, in a scratch folder) a soccer pool of 4,600 samples at 256 × 144,
+draws a 4,500 / 50 / 50 split, and times in the same run:
+
+* ``load_split(store, "train", 0)``: the 4,500 images, semantic maps and
+  homographies read from the sharded, Zstd-compressed Zarr store in sorted batches;
+* ``numpy.load`` of the same three arrays saved as uncompressed ``.npy`` files;
+
+both from the page cache (each is read once before timing), best of ``--repeat``
+(with ``--zarr`` also zarr-python's own orthogonal selection, once).
+Target: ratio ≤ 3. Also reported: items/s through a ``DataLoader(num_workers=2)``.
+
+Run: .venv/bin/python benchmarks/load.py [--scratch /tmp/synthcal-load] [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from synthcal.config import SplitSizes, load_config
+from synthcal.data import load_split
+from synthcal.generate.pipeline import generate_dataset
+from synthcal.generate.splits import draw_splits, read_split_indices
+from synthcal.generate.store import open_store, read_samples
+
+ROOT = Path(__file__).resolve().parents[1]
+SPLIT = 4500
+
+
+def best_of(repeat: int, fn) -> float:
+    """Smallest wall time of ``repeat`` calls (the machine is shared and noisy)."""
+    times = []
+    for _ in range(repeat):
+        started = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - started)
+    return min(times)
+
+
+def prepare(scratch: Path, workers: int) -> Path:
+    """The soccer store with a 4,500-sample train split, and the .npy copies."""
+    spec = load_config(ROOT / "datasets.yaml").resolve("soccer", "quick", pool_size=SPLIT + 100)
+    started = time.perf_counter()
+    store = generate_dataset(spec, scratch, workers=workers, progress=True)
+    print(f"store {store}: {spec.pool_size} samples at {spec.image_size}, {time.perf_counter() - started:.0f} s")
+    draw_splits(store, seeds=[0], sizes=SplitSizes(train=SPLIT, test=50, dictionary=50), sources=())
+    index = read_split_indices(store, "train", 0)
+    npy = scratch / "npy"
+    if not npy.exists():
+        split = load_split(store, "train", 0)
+        npy.mkdir()
+        for name, array in (("image", split.images), ("semantic", split.semantics), ("homography", split.homographies)):
+            np.save(npy / f"{name}.npy", array)
+    assert len(index) == SPLIT
+    return store
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scratch", type=Path, default=Path("/tmp/synthcal-load"))
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--zarr", action="store_true", help="also time zarr-python's own reader (~20 s)")
+    args = parser.parse_args()
+    store = prepare(args.scratch, args.workers)
+    npy = args.scratch / "npy"
+
+    def numpy_load() -> None:
+        for name in ("image", "semantic", "homography"):
+            np.load(npy / f"{name}.npy")
+
+    numpy_load(), load_split(store, "train", 0)  # warm the page cache for both
+    t_numpy = best_of(args.repeat, numpy_load)
+    t_split = best_of(args.repeat, lambda: load_split(store, "train", 0))
+    size = sum((npy / f"{n}.npy").stat().st_size for n in ("image", "semantic", "homography"))
+    on_disk = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())
+    print(f"split of {SPLIT} samples, {size / 2**20:.0f} MiB in memory ({on_disk / 2**20:.0f} MiB store on disk)")
+    print(f"numpy.load (.npy, uncompressed)  {t_numpy:6.2f} s")
+    print(f"load_split (Zarr, sharded, zstd) {t_split:6.2f} s   ratio {t_split / t_numpy:.2f} (target ≤ 3)")
+    if args.zarr:
+        group, index = open_store(store), read_split_indices(store, "train", 0)
+        t_zarr = best_of(1, lambda: read_samples(group, index))
+        print(f"store.read_samples (zarr-python's orthogonal selection) {t_zarr:6.2f} s   "
+              f"ratio {t_zarr / t_numpy:.1f}")
+
+    from torch.utils.data import DataLoader
+
+    split = load_split(store, "train", 0)
+    loader = DataLoader(split, batch_size=64, num_workers=2, shuffle=True)
+    started = time.perf_counter()
+    count = sum(len(batch[0]) for batch in loader)
+    elapsed = time.perf_counter() - started
+    print(f"DataLoader(num_workers=2, batch 64): {count / elapsed:,.0f} items/s (float conversion per item)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,517 @@
+"""Per-seed train / test / dictionary splits inside a store (SPEC §6).
+
+Layout (inside the dataset's store)::
+
+    splits/                                   group, attrs {"layout": "synthcal-splits/1"}
+    splits/seed-<s>/                          group, attrs = the recipe (below)
+    splits/seed-<s>/train                     (n_train,) int64   pool indices, ascending
+    splits/seed-<s>/test                      (n_test,)  int64
+    splits/seed-<s>/dictionary                (n_dict,)  int64   absent without an own dictionary
+    splits/seed-<s>/mixed_dictionary/         group, attrs {"sources", "stores", "source_config_hash",
+                                              "homography_frame"}; present when the dataset has sources
+    splits/seed-<s>/mixed_dictionary/source   (K,) int64   position in the ``sources`` attribute list
+    splits/seed-<s>/mixed_dictionary/index    (K,) int64   pool index in that source's store
+
+The three own sets of a seed are disjoint, drawn uniformly without replacement from
+the pool with ``SeedSequence(pool_seed, spawn_key=(2, s))`` — a stream independent
+of the pool's cameras ``(0,)`` and of the per-sample appearance ``(1, i)``. A dataset
+of given poses (``worldcup2014``) has fixed train/test sets, the same for every seed.
+
+**Mixed dictionaries.** The ``K`` templates (``K`` = the dictionary size) come from
+the pools of the source datasets, an equal share from each (the first ``K mod n``
+sources give one more), drawn with ``SeedSequence(pool_seed, spawn_key=(3, s))``,
+grouped by source and ascending within a source. Source stores are found *beside*
+the target: ``<target's folder>/<source>.zarr`` (``stores`` records those relative
+paths, ``source_config_hash`` the pool each index refers to). A template's
+homography maps **its source scene's** bird's-eye frame to the image — not the
+target's scene (``homography_frame`` says so in the store).
+
+**Writing.** Each seed's group is built under ``<store>/.splits-tmp-<random>/`` and
+moved into place with ``os.replace``, so ``splits/seed-<s>`` is always whole. A
+seed whose recorded recipe (pool, sizes, sources) equals the request is left alone,
+so redrawing is idempotent; a changed recipe replaces the group (the old one is
+moved aside first, then deleted). One writer per store at a time.
+
+Example
+-------
+>>> import numpy as np
+>>> from synthcal.config import SplitSizes
+>>> sets = draw_indices(100, SplitSizes(train=60, test=10, dictionary=20), pool_seed=0, split_seed=1)
+>>> [len(sets[k]) for k in SPLIT_NAMES], len(np.unique(np.concatenate(list(sets.values()))))
+([60, 10, 20], 90)
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import zarr
+
+from synthcal.config import DatasetSpec, SplitSizes
+from synthcal.generate.shardread import read_rows
+from synthcal.generate.store import StoreError, open_store
+
+__all__ = [
+    "SPLIT_NAMES",
+    "LAYOUT_VERSION",
+    "SplitError",
+    "DrawResult",
+    "MixedDictionary",
+    "parse_seeds",
+    "split_sizes",
+    "store_spec",
+    "draw_indices",
+    "draw_mixed",
+    "draw_splits",
+    "drawn_seeds",
+    "read_split_indices",
+    "read_mixed_dictionary",
+    "read_indexed",
+    "read_mixed_samples",
+    "resolve_mixed_dictionary",
+    "source_store_path",
+]
+
+SPLIT_NAMES = ("train", "test", "dictionary")
+LAYOUT_VERSION = "synthcal-splits/1"
+_HOMOGRAPHY_FRAME = "source: each template's homography maps its source scene's bird's-eye frame to the image"
+
+
+class SplitError(StoreError):
+    """A split that cannot be drawn or read; the message names store, key and value."""
+
+
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``"0-4"``, ``"0,2,7"`` or ``"3"`` → sorted distinct seeds.
+
+    Raises:
+        SplitError: not such a list, or a negative seed.
+    """
+    seeds: set[int] = set()
+    try:
+        for part in text.split(","):
+            first, _, last = part.strip().partition("-")
+            low, high = int(first), int(last or first)
+            if high < low:
+                raise ValueError
+            seeds.update(range(low, high + 1))
+    except ValueError:
+        raise SplitError(f"--seeds: expected e.g. 0-4 or 0,2,5 with seeds ≥ 0 (value {text!r})") from None
+    return tuple(sorted(seeds))
+
+
+def split_sizes(base: SplitSizes, **overrides: int) -> SplitSizes:
+    """``base`` with some sizes replaced (e.g. from ``--train N``), each ≥ 1.
+
+    Raises:
+        SplitError: a size below 1.
+    """
+    for name, value in overrides.items():
+        if name not in SPLIT_NAMES or value < 1:
+            raise SplitError(f"--{name}: a split size must be an integer ≥ 1 (value {value!r})")
+    return SplitSizes(**{**base.model_dump(), **overrides})
+
+
+def store_spec(group: zarr.Group, path: Path) -> DatasetSpec:
+    """The resolved configuration recorded in a store's attributes."""
+    try:
+        return DatasetSpec.model_validate(group.attrs["config"])
+    except (KeyError, ValueError) as exc:
+        raise SplitError(f"{path}: attribute 'config' missing or unreadable ({exc})") from None
+
+
+def draw_indices(
+    pool_size: int,
+    sizes: SplitSizes,
+    pool_seed: int,
+    split_seed: int,
+    fixed: dict[str, np.ndarray] | None = None,
+    own_dictionary: bool = True,
+) -> dict[str, np.ndarray]:
+    """Disjoint index sets of one seed.
+
+    Args:
+        pool_size: N, the pool's sample count.
+        sizes: how many train / test / dictionary samples.
+        pool_seed: the store's seed.
+        split_seed: the cycle's seed ``s``.
+        fixed: given train/test sets (poses datasets); drawn otherwise.
+        own_dictionary: draw a ``dictionary`` from the pool too.
+
+    Returns:
+        ``train``, ``test`` (and ``dictionary``) as ascending (n,) int64 arrays.
+
+    Raises:
+        ValueError: the sizes add up to more than N (the caller names the store).
+    """
+    names = [name for name in SPLIT_NAMES if name != "dictionary" or own_dictionary]
+    fixed = fixed or {}
+    drawn_names = [name for name in names if name not in fixed]
+    taken = np.concatenate([np.asarray(fixed[n], np.int64) for n in names if n in fixed] or [np.zeros(0, np.int64)])
+    free = np.setdiff1d(np.arange(pool_size, dtype=np.int64), taken) if len(taken) else None
+    available = pool_size - len(taken)
+    counts = [getattr(sizes, name) for name in drawn_names]
+    if sum(counts) > available:
+        held = f"N = {pool_size}" if not len(taken) else \
+            f"only {available} outside the fixed {'/'.join(fixed)} sets (N = {pool_size})"
+        raise ValueError(f"{' + '.join(f'{n} {c}' for n, c in zip(drawn_names, counts))} = {sum(counts)} "
+                         f"samples asked for, but the pool holds {held}")
+    rng = np.random.default_rng(np.random.SeedSequence(pool_seed, spawn_key=(2, split_seed)))
+    chosen = rng.choice(available, size=sum(counts), replace=False).astype(np.int64)
+    if free is not None:
+        chosen = free[chosen]
+    out = {name: np.sort(np.asarray(fixed[name], np.int64)) for name in names if name in fixed}
+    for name, part in zip(drawn_names, np.split(chosen, np.cumsum(counts)[:-1])):
+        out[name] = np.sort(part)
+    return {name: out[name] for name in names}
+
+
+def draw_mixed(
+    source_sizes: Sequence[int], count: int, pool_seed: int, split_seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """A mixed dictionary: an equal share of ``count`` templates from each source.
+
+    Args:
+        source_sizes: pool size of each source.
+        count: K, the number of templates.
+        pool_seed, split_seed: as in :func:`draw_indices` (a separate stream).
+
+    Returns:
+        ``source`` (K,) int64 positions into ``source_sizes`` and ``index`` (K,)
+        int64 pool indices, grouped by source and ascending within one.
+
+    Raises:
+        ValueError: a source's share exceeds its pool (the caller names the store).
+    """
+    n = len(source_sizes)
+    shares = [count // n + (k < count % n) for k in range(n)]
+    rng = np.random.default_rng(np.random.SeedSequence(pool_seed, spawn_key=(3, split_seed)))
+    sources, indices = [], []
+    for k, (share, size) in enumerate(zip(shares, source_sizes)):
+        if share > size:
+            raise ValueError(f"source {k}: its share {share} of the {count} templates exceeds its pool of N = {size}")
+        indices.append(np.sort(rng.choice(size, size=share, replace=False)).astype(np.int64))
+        sources.append(np.full(share, k, np.int64))
+    return np.concatenate(sources), np.concatenate(indices)
+
+
+def source_store_path(store: Path, source: str) -> Path:
+    """Where a mixed-dictionary source is found: beside the target's store."""
+    return Path(store).parent / f"{source}.zarr"
+
+
+def _open_source(store: Path, target_attrs: dict, source: str, config_hash: str | None = None) -> zarr.Group:
+    """Open a source store and check that its samples can stand in the target's dictionary."""
+    path = source_store_path(store, source)
+    try:
+        group = open_store(path)
+    except StoreError as exc:
+        raise SplitError(f"{store}: mixed-dictionary source {source!r}: {exc}") from None
+    attrs = group.attrs
+    for key in ("image_size",):
+        if attrs[key] != target_attrs[key]:
+            raise SplitError(f"{store}: mixed-dictionary source {path}: {key} {attrs[key]} differs from the "
+                             f"target's {target_attrs[key]}")
+    if attrs["scene"]["classes"] != target_attrs["scene"]["classes"]:
+        raise SplitError(f"{store}: mixed-dictionary source {path}: scene classes {attrs['scene']['classes']} "
+                         f"differ from the target's {target_attrs['scene']['classes']}")
+    if config_hash is not None and attrs["config_hash"] != config_hash:
+        raise SplitError(f"{store}: mixed-dictionary source {path} was regenerated since the split was drawn "
+                         f"(config_hash {attrs['config_hash'][:12]}…, recorded {config_hash[:12]}…); "
+                         f"redraw with `synthcal split {store}`")
+    return group
+
+
+@dataclass(frozen=True)
+class DrawResult:
+    """What :func:`draw_splits` did.
+
+    Attributes:
+        store: the target store.
+        drawn: seeds written (new, or with a changed recipe).
+        unchanged: seeds already there with the same recipe.
+        note: why a mixed dictionary was not drawn, or None.
+    """
+
+    store: Path
+    drawn: tuple[int, ...]
+    unchanged: tuple[int, ...]
+    note: str | None = None
+
+
+def _fixed_sets(group: zarr.Group) -> dict[str, np.ndarray]:
+    """Given train/test sets of a poses dataset (recorded by the pipeline), else {}."""
+    poses = group.attrs.get("poses")
+    if not poses:
+        return {}
+    return {name: np.arange(*poses["partition"][name], dtype=np.int64) for name in ("train", "test")}
+
+
+def _write_seed(store: Path, seed: int, recipe: dict, sets: dict[str, np.ndarray],
+                mixed: tuple[np.ndarray, np.ndarray, dict] | None) -> None:
+    """Build ``splits/seed-<s>`` under a temporary name, then move it into place."""
+    scratch = Path(tempfile.mkdtemp(prefix=".splits-tmp-", dir=store))
+    try:
+        built = scratch / f"seed-{seed}"
+        group = zarr.create_group(zarr.storage.LocalStore(built), zarr_format=3, attributes=recipe)
+        for name, index in sets.items():
+            group.create_array(name, data=index)
+        if mixed is not None:
+            source, index, attrs = mixed
+            sub = group.create_group("mixed_dictionary", attributes=attrs)
+            sub.create_array("source", data=source)
+            sub.create_array("index", data=index)
+        target = store / "splits" / f"seed-{seed}"
+        if target.exists():
+            os.replace(target, scratch / "previous")
+        os.replace(built, target)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _ensure_splits_group(store: Path) -> None:
+    if not (store / "splits" / "zarr.json").is_file():
+        zarr.create_group(zarr.storage.LocalStore(store / "splits"), zarr_format=3,
+                          attributes={"layout": LAYOUT_VERSION})
+
+
+def _mixed_plan(
+    store: Path, attrs: dict, sources: Sequence[str], count: int, pool_seed: int, seeds: Sequence[int]
+) -> tuple[dict[str, str], dict[int, tuple[np.ndarray, np.ndarray]]]:
+    """Source hashes and each seed's (source, index) arrays."""
+    groups = [_open_source(store, attrs, name) for name in sources]
+    sizes = [g.attrs["N"] for g in groups]
+    hashes = {name: g.attrs["config_hash"] for name, g in zip(sources, groups)}
+    try:
+        drawn = {seed: draw_mixed(sizes, count, pool_seed, seed) for seed in seeds}
+    except ValueError as exc:
+        detail = ", ".join(f"{name} N = {size}" for name, size in zip(sources, sizes))
+        raise SplitError(f"{store}: mixed dictionary of {count} templates from {len(sources)} source(s) "
+                         f"({detail}): {exc}") from None
+    return hashes, drawn
+
+
+def draw_splits(
+    store: str | Path,
+    seeds: Sequence[int] | None = None,
+    sizes: SplitSizes | None = None,
+    sources: Sequence[str] | None = None,
+    mixed: bool | None = None,
+) -> DrawResult:
+    """Draw (or confirm) the splits of a complete store for several seeds.
+
+    Args:
+        store: the target store ``NAME.zarr``.
+        seeds: split seeds (default: the store's recorded ``split_seeds``).
+        sizes: split sizes (default: the recorded ones). For a poses dataset only
+            the dictionary size may differ from the poses' train/test partition.
+        sources: mixed-dictionary source datasets (default: the recorded ones).
+        mixed: True: the mixed dictionary is required (missing sources are an
+            error); False: never drawn; None: drawn when every source store exists.
+
+    Returns:
+        which seeds were written and which were already up to date.
+
+    Raises:
+        SplitError: a bad seed, sizes larger than the pool, a missing or
+            incompatible source store (when required); nothing is written then.
+    """
+    store = Path(store)
+    group = open_store(store)
+    spec = store_spec(group, store)
+    seeds = tuple(spec.split_seeds if seeds is None else seeds)
+    sizes = sizes or spec.splits
+    sources = tuple(spec.mixed_sources if sources is None else sources)
+    attrs = dict(group.attrs)
+    pool_size, pool_seed = attrs["N"], attrs["seed"]
+    if any(not isinstance(s, (int, np.integer)) or s < 0 for s in seeds):
+        raise SplitError(f"{store}: split seeds must be integers ≥ 0 (value {list(seeds)})")
+    fixed = _fixed_sets(group)
+    for name, index in fixed.items():
+        if getattr(sizes, name) != len(index):
+            raise SplitError(f"{store}: splits.{name}: the poses fix {name} at {len(index)} samples "
+                             f"(value {getattr(sizes, name)})")
+    try:
+        sets = {seed: draw_indices(pool_size, sizes, pool_seed, seed, fixed, spec.own_dictionary) for seed in seeds}
+    except ValueError as exc:
+        raise SplitError(f"{store}: splits {sizes.train}/{sizes.test}/{sizes.dictionary} (train/test/dictionary) "
+                         f"do not fit: {exc}") from None
+    note = None
+    mixed_arrays: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    hashes: dict[str, str] = {}
+    if sources and mixed is not False:
+        missing = [str(source_store_path(store, s)) for s in sources if not source_store_path(store, s).exists()]
+        if missing and mixed is None:
+            note = (f"{store}: mixed dictionary not drawn: source store(s) {', '.join(missing)} missing; "
+                    f"generate them, then run `synthcal split {store}`")
+        else:
+            hashes, mixed_arrays = _mixed_plan(store, attrs, sources, sizes.dictionary, pool_seed, seeds)
+    elif mixed and not sources:
+        raise SplitError(f"{store}: dataset {attrs['dataset']!r} has no mixed-dictionary sources "
+                         f"(mixed_dictionaries / dictionary_from in datasets.yaml)")
+
+    _ensure_splits_group(store)
+    drawn, unchanged = [], []
+    for seed in seeds:
+        recipe = {
+            "seed": int(seed), "pool_seed": pool_seed, "pool_config_hash": attrs["config_hash"], "N": pool_size,
+            "sizes": {name: len(index) for name, index in sets[seed].items()},
+            "fixed": sorted(fixed), "mixed_sources": list(sources) if seed in mixed_arrays else [],
+            "mixed_source_config_hash": hashes if seed in mixed_arrays else {},
+            "mixed_size": len(mixed_arrays[seed][1]) if seed in mixed_arrays else 0,
+        }
+        if _recorded_recipe(store, seed) == recipe:
+            unchanged.append(seed)
+            continue
+        mixed_part = None
+        if seed in mixed_arrays:
+            mixed_attrs = {
+                "sources": list(sources),
+                "stores": [f"../{source}.zarr" for source in sources],
+                "source_config_hash": hashes,
+                "homography_frame": _HOMOGRAPHY_FRAME,
+            }
+            mixed_part = (*mixed_arrays[seed], mixed_attrs)
+        _write_seed(store, seed, recipe, sets[seed], mixed_part)
+        drawn.append(seed)
+    return DrawResult(store, tuple(drawn), tuple(unchanged), note)
+
+
+def _recorded_recipe(store: Path, seed: int) -> dict | None:
+    path = store / "splits" / f"seed-{seed}"
+    if not (path / "zarr.json").is_file():
+        return None
+    return dict(zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r").attrs)
+
+
+def drawn_seeds(group: zarr.Group) -> tuple[int, ...]:
+    """The seeds whose splits a store holds."""
+    if "splits" not in group:
+        return ()
+    names = [name for name in group["splits"].group_keys() if name.startswith("seed-")]
+    return tuple(sorted(int(name.removeprefix("seed-")) for name in names))
+
+
+def _seed_group(group: zarr.Group, store: Path, seed: int) -> zarr.Group:
+    key = f"splits/seed-{seed}"
+    if key not in group:
+        seeds = drawn_seeds(group)
+        available = ", ".join(map(str, seeds)) or "none; draw them with `synthcal split STORE`"
+        raise SplitError(f"{store}: {key}: no splits drawn for seed {seed!r}; seeds available: {available}")
+    return group[key]
+
+
+def read_split_indices(store: str | Path, split: str, seed: int) -> np.ndarray:
+    """The pool indices of one of the store's own splits.
+
+    Args:
+        store: the store.
+        split: ``train``, ``test`` or ``dictionary``.
+        seed: the split seed.
+
+    Returns:
+        (n,) int64 ascending indices into the store's pool.
+
+    Raises:
+        SplitError: unknown split or seed, or a dataset without an own dictionary.
+    """
+    store = Path(store)
+    if split not in SPLIT_NAMES:
+        raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(SPLIT_NAMES)}")
+    seed_group = _seed_group(open_store(store), store, seed)
+    if split not in seed_group:
+        raise SplitError(f"{store}: splits/seed-{seed}/{split}: dataset has no own {split} "
+                         f"(its dictionary comes from other datasets: load it as the mixed dictionary)")
+    return seed_group[split][:]
+
+
+@dataclass(frozen=True)
+class MixedDictionary:
+    """A mixed dictionary's templates: which source store, which sample.
+
+    Attributes:
+        store: the target store.
+        sources: source dataset names.
+        stores: the source stores (beside the target).
+        source_config_hash: the pool each source index refers to.
+        source: (K,) int64 positions into ``sources``.
+        index: (K,) int64 pool indices in the source stores.
+    """
+
+    store: Path
+    sources: tuple[str, ...]
+    stores: tuple[Path, ...]
+    source_config_hash: dict[str, str]
+    source: np.ndarray
+    index: np.ndarray
+
+
+def read_mixed_dictionary(store: str | Path, seed: int) -> MixedDictionary:
+    """The (source, index) pairs of a seed's mixed dictionary.
+
+    Raises:
+        SplitError: unknown seed, or no mixed dictionary drawn.
+    """
+    store = Path(store)
+    seed_group = _seed_group(open_store(store), store, seed)
+    key = f"splits/seed-{seed}/mixed_dictionary"
+    if "mixed_dictionary" not in seed_group:
+        raise SplitError(f"{store}: {key}: no mixed dictionary here (the dataset has no sources, or they were "
+                         f"missing when the splits were drawn: generate them beside the store and run "
+                         f"`synthcal split {store}`)")
+    sub = seed_group["mixed_dictionary"]
+    sources = tuple(sub.attrs["sources"])
+    return MixedDictionary(
+        store=store, sources=sources, stores=tuple(source_store_path(store, s) for s in sources),
+        source_config_hash=dict(sub.attrs["source_config_hash"]), source=sub["source"][:], index=sub["index"][:],
+    )
+
+
+def read_indexed(group: zarr.Group, index: np.ndarray) -> dict[str, np.ndarray]:
+    """``image``, ``semantic``, ``homography`` of the samples at ``index``.
+
+    Reads shard by shard in sorted order, decoding straight into the result
+    (:func:`synthcal.generate.shardread.read_rows`; Zarr's own orthogonal
+    selection for any other layout), so the peak memory is the result's size.
+
+    Returns:
+        (K, H, W, 3) uint8, (K, H, W) uint8 and (K, 3, 3) float64, in ``index``'s order.
+    """
+    return {name: read_rows(group[name], index) for name in ("image", "semantic", "homography")}
+
+
+def read_mixed_samples(mixed: MixedDictionary) -> dict[str, np.ndarray]:
+    """Resolve templates to arrays from their source stores.
+
+    Returns:
+        ``image`` (K, H, W, 3) uint8, ``semantic`` (K, H, W) uint8,
+        ``homography`` (K, 3, 3) float64 in the **source** scene's bird's-eye frame,
+        ``source`` and ``index`` (K,) int64.
+
+    Raises:
+        SplitError: a source store missing, incompatible, or regenerated since.
+    """
+    target_attrs = dict(open_store(mixed.store).attrs)
+    out: dict[str, np.ndarray] = {}
+    for k, name in enumerate(mixed.sources):
+        group = _open_source(mixed.store, target_attrs, name, mixed.source_config_hash.get(name))
+        mask = mixed.source == k
+        if not mask.any():  # fewer templates than sources
+            continue
+        for key, values in read_indexed(group, mixed.index[mask]).items():
+            if key not in out:
+                out[key] = np.empty((len(mixed.index), *values.shape[1:]), values.dtype)
+            out[key][mask] = values
+    out["source"], out["index"] = mixed.source, mixed.index
+    return out
+
+
+def resolve_mixed_dictionary(store: str | Path, seed: int) -> dict[str, np.ndarray]:
+    """One call: a seed's mixed dictionary as arrays (see :func:`read_mixed_samples`)."""
+    return read_mixed_samples(read_mixed_dictionary(store, seed))

@@ -8,10 +8,13 @@ third coordinate = depth > 0 in front of the camera; SPEC §2). An image pixel
 positive (*cheirality*); pixels above the horizon, and pixels whose ground point
 falls outside the bird's-eye image, are class 0 and black.
 
-The semantic map is sampled with nearest neighbour — exactly
-``cv2.warpPerspective(..., INTER_NEAREST, BORDER_CONSTANT 0)`` followed by the
-cheirality mask — so that any other warp (the models' torch warp, the metrics)
-can reproduce it bit for bit. The RGB view is rendered at ``supersample`` times
+The semantic map is sampled with nearest neighbour from sampling positions computed
+here in float64 (``u = row0 / depth`` with ``row_i = (m_i1 y + m_i2) + m_i0 x``,
+``M = H⁻¹``), rounded half to even; positions outside the scene give class 0. The
+arithmetic is spelled out, rather than left to ``cv2.warpPerspective`` (whose
+kernels changed from double to float32 arithmetic in OpenCV 4.11), so that stores
+do not depend on the OpenCV version and the models' torch warp reproduces the map
+bit for bit. The RGB view is rendered at ``supersample`` times
 the output resolution with bilinear interpolation and averaged down (area
 filter), which removes the aliasing of far-away road markings.
 
@@ -35,6 +38,7 @@ import cv2
 import numpy as np
 
 __all__ = [
+    "inverse_homography",
     "visible_mask",
     "mask_invisible",
     "render_semantic",
@@ -42,6 +46,28 @@ __all__ = [
     "Appearance",
     "apply_appearance",
 ]
+
+
+def inverse_homography(homography: np.ndarray) -> np.ndarray:
+    """Inverse of a (3, 3) matrix by adjugate / determinant.
+
+    Spelled out in the same operation order as :func:`synthcal.models.warp.inverse_3x3`
+    so that the torch warp reproduces this module's sampling positions bit for bit
+    (two LAPACK inverses may differ in the last bit, which flips pixels whose
+    position falls exactly halfway between two bird's-eye pixels).
+    """
+    m = np.asarray(homography, dtype=np.float64)
+
+    def minor(r0: int, r1: int, c0: int, c1: int) -> float:
+        return m[r0, c0] * m[r1, c1] - m[r0, c1] * m[r1, c0]
+
+    det = m[0, 0] * minor(1, 2, 1, 2) - m[0, 1] * minor(1, 2, 0, 2) + m[0, 2] * minor(1, 2, 0, 1)
+    adjugate = np.array([
+        minor(1, 2, 1, 2), m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2], minor(0, 1, 1, 2),
+        m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2], minor(0, 2, 0, 2), m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2],
+        minor(1, 2, 0, 1), m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1], minor(0, 1, 0, 1),
+    ])
+    return (adjugate * (1.0 / det)).reshape(3, 3)
 
 
 def visible_mask(homography: np.ndarray, image_size: tuple[int, int], supersample: int = 1) -> np.ndarray:
@@ -57,7 +83,7 @@ def visible_mask(homography: np.ndarray, image_size: tuple[int, int], supersampl
         (height · s, width · s) bool array, True where the pixel sees the ground.
     """
     width, height = image_size
-    a, b, c = np.linalg.inv(np.asarray(homography, dtype=np.float64))[2]
+    a, b, c = inverse_homography(homography)[2]
     s = supersample
     xs = (np.arange(width * s) + 0.5) / s - 0.5
     ys = (np.arange(height * s) + 0.5) / s - 0.5
@@ -82,7 +108,7 @@ def mask_invisible(image: np.ndarray, homography: np.ndarray, supersample: int =
     """
     h, w = image.shape[:2]
     s = supersample
-    a, b, c = np.linalg.inv(np.asarray(homography, dtype=np.float64))[2]
+    a, b, c = inverse_homography(homography)[2]
     xs = (np.arange(w) + 0.5) / s - 0.5
     ys = (np.arange(h) + 0.5) / s - 0.5
     row = b * ys + c
@@ -111,11 +137,20 @@ def render_semantic(scene_semantic: np.ndarray, homography: np.ndarray, image_si
     Returns:
         (height, width) uint8 class map; 0 above the horizon and off the scene.
     """
-    view = cv2.warpPerspective(
-        scene_semantic, np.asarray(homography, np.float64), image_size,
-        flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0,
-    )
-    return mask_invisible(view, homography)
+    width, height = image_size
+    M = inverse_homography(homography)
+    xs = np.arange(width, dtype=np.float64)
+    ys = np.arange(height, dtype=np.float64)[:, None]
+    depth = (M[2, 1] * ys + M[2, 2]) + M[2, 0] * xs
+    visible = depth > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reciprocal = np.where(visible, 1.0 / depth, 0.0)
+        col = np.rint(((M[0, 1] * ys + M[0, 2]) + M[0, 0] * xs) * reciprocal)
+        row = np.rint(((M[1, 1] * ys + M[1, 2]) + M[1, 0] * xs) * reciprocal)
+    scene_height, scene_width = scene_semantic.shape
+    inside = visible & (col >= 0) & (col <= scene_width - 1) & (row >= 0) & (row <= scene_height - 1)
+    flat = np.where(inside, row * scene_width + col, 0).astype(np.intp)
+    return np.where(inside, scene_semantic.reshape(-1)[flat], 0).astype(np.uint8)
 
 
 def render_image(

@@ -1,0 +1,208 @@
+"""The composite model UNet → Siamese → STN → warp, and its end-to-end objective.
+
+Data flow (B images of size W × H, a dictionary of T templates)
+--------------------------------------------------------------
+1. ``UNet``: RGB (B, 3, H, W) → logits (B, 4, H, W); ``P = softmax(logits)``.
+2. ``SiameseNet``: ``P`` → embedding (B, D); nearest dictionary embedding →
+   retrieved template ``k`` (not differentiable).
+3. STN: ``P ⊕ onehot(template_k)`` (B, 8, H, W) → ``h̄`` (B, 8);
+   ``H = N⁻¹ H̄ N H_k`` (:func:`synthcal.models.stn.compose_homography`).
+4. Warp: the scene's one-hot map through ``H`` (bilinear, cheirality-masked) →
+   ``Ŷ`` (B, 4, H, W).
+
+Gradients reach the UNet through ``P`` (the STN's input and the Siamese's input)
+and through ``L_warp``; matching itself passes none.
+
+Objective
+---------
+``L = η L_CE + τ L_con + γ L_warp`` with ``(η, τ, γ) = end_to_end_weights(epoch)``
+(SPEC §7). ``L_con`` pairs each image's embedding with its ground-truth template
+(similar) and with the nearest *other* template in the current dictionary
+embeddings (dissimilar: the hardest negative). During training the STN is given
+the ground-truth template (teacher forcing), since retrieval is not
+differentiable and is poor early on; at inference it gets the retrieved one.
+
+Example
+-------
+>>> end_to_end_weights(0), end_to_end_weights(20), end_to_end_weights(40)
+((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.05, 0.05, 0.9))
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from torch import Tensor, nn
+
+from .losses import one_hot_maps, warp_loss
+from .siamese import SiameseNet, contrastive_loss, nearest_embeddings
+from .stn import compose_homography
+from .unet import UNet, segmentation_loss
+from .warp import warp_semantic
+
+__all__ = ["end_to_end_weights", "CompositeOutput", "CompositeModel"]
+
+
+def end_to_end_weights(epoch: int) -> tuple[float, float, float]:
+    """Loss weights ``(η, τ, γ)`` of end-to-end training at a 0-based epoch.
+
+    Epochs 0–19: (1, 0, 0), segmentation only; 20–39: (0, 1, 0), embedding only;
+    40 on: (0.05, 0.05, 0.9). SPEC §7's "epochs ≤ 20" counts from 1: the same
+    twenty epochs.
+    """
+    if epoch < 20:
+        return 1.0, 0.0, 0.0
+    if epoch < 40:
+        return 0.0, 1.0, 0.0
+    return 0.05, 0.05, 0.9
+
+
+@dataclass
+class CompositeOutput:
+    """Everything :meth:`CompositeModel.forward` computes.
+
+    Attributes:
+        logits: (B, C, H, W) UNet logits.
+        probabilities: (B, C, H, W) softmax of the logits.
+        embedding: (B, D) Siamese embedding of the probabilities.
+        match_index: (B,) int64 template given to the STN.
+        h_bar: (B, 8) STN output.
+        homography: (B, 3, 3) estimated bird's-eye → image homographies (float64).
+        warped: (B, C, H, W) scene warped by ``homography`` (bilinear).
+    """
+
+    logits: Tensor
+    probabilities: Tensor
+    embedding: Tensor
+    match_index: Tensor
+    h_bar: Tensor
+    homography: Tensor
+    warped: Tensor
+
+
+class CompositeModel(nn.Module):
+    """UNet → Siamese → STN → warp over one scene and one template dictionary.
+
+    The scene and dictionary are non-persistent buffers (they move with
+    ``.to(device)`` but stay out of ``state_dict``).
+
+    Args:
+        unet: RGB → class logits.
+        siamese: map → embedding.
+        stn: (map ⊕ template) → 8 values of ``H̄``.
+        scene_semantic: (Hs, Ws) integer class ids of the bird's-eye scene.
+        dictionary_semantic: (T, H, W) integer class ids of the templates.
+        dictionary_homography: (T, 3, 3) the templates' homographies.
+        num_classes: number of classes C.
+        warp_loss_name: ``"mse"``, ``"dice"``, ``"top_mse"`` or ``"top_dice"``.
+        margin: contrastive margin.
+    """
+
+    def __init__(self, unet: UNet, siamese: SiameseNet, stn: nn.Module, scene_semantic: Tensor,
+                 dictionary_semantic: Tensor, dictionary_homography: Tensor, num_classes: int = 4,
+                 warp_loss_name: str = "top_mse", margin: float = 1.0):
+        super().__init__()
+        self.unet, self.siamese, self.stn = unet, siamese, stn
+        self.num_classes, self.margin = num_classes, margin
+        self.warp_loss = warp_loss(warp_loss_name)
+        self.register_buffer("scene", one_hot_maps(scene_semantic, num_classes), persistent=False)
+        self.register_buffer("dictionary_semantic", dictionary_semantic.to(torch.uint8), persistent=False)
+        self.register_buffer("dictionary_homography", dictionary_homography.double(), persistent=False)
+        self.register_buffer("dictionary_embedding", torch.empty(0), persistent=False)
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """``(width, height)`` of the images (that of the templates)."""
+        return self.dictionary_semantic.shape[-1], self.dictionary_semantic.shape[-2]
+
+    def templates(self, index: Tensor) -> Tensor:
+        """(B, C, H, W) one-hot maps of the templates ``index`` (B,)."""
+        return one_hot_maps(self.dictionary_semantic[index], self.num_classes, self.scene.dtype)
+
+    @torch.no_grad()
+    def refresh_dictionary_embeddings(self, batch_size: int = 256) -> Tensor:
+        """Re-embed every template with the current Siamese (eval mode); (T, D)."""
+        was_training = self.siamese.training
+        self.siamese.eval()
+        index = torch.arange(self.dictionary_semantic.shape[0], device=self.dictionary_semantic.device)
+        self.dictionary_embedding = torch.cat(
+            [self.siamese(self.templates(chunk)) for chunk in index.split(batch_size)]
+        )
+        self.siamese.train(was_training)
+        return self.dictionary_embedding
+
+    def _refine(self, probabilities: Tensor, match_index: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+        """STN and warp for given templates: (h_bar, homography, warped)."""
+        h_bar = self.stn(torch.cat([probabilities, self.templates(match_index)], dim=1))
+        H = compose_homography(h_bar, self.dictionary_homography[match_index], self.image_size)
+        return h_bar, H, warp_semantic(self.scene, H, self.image_size, "bilinear")
+
+    def forward(self, images: Tensor, match_index: Tensor | None = None) -> CompositeOutput:
+        """Run the whole pipeline.
+
+        Args:
+            images: (B, 3, H, W) RGB.
+            match_index: (B,) templates for the STN; by default the nearest in
+                embedding space (the dictionary embeddings are computed on first
+                use; call :meth:`refresh_dictionary_embeddings` after training
+                the Siamese).
+
+        Returns:
+            :class:`CompositeOutput`.
+        """
+        logits = self.unet(images)
+        probabilities = logits.softmax(dim=1)
+        embedding = self.siamese(probabilities)
+        if match_index is None:
+            if self.dictionary_embedding.numel() == 0:
+                self.refresh_dictionary_embeddings()
+            match_index = nearest_embeddings(embedding.detach(), self.dictionary_embedding).index
+        h_bar, H, warped = self._refine(probabilities, match_index)
+        return CompositeOutput(logits, probabilities, embedding, match_index, h_bar, H, warped)
+
+    def _hardest_negative(self, embedding: Tensor, positive: Tensor) -> Tensor:
+        """Nearest template in the current dictionary embeddings other than ``positive``."""
+        if self.dictionary_embedding.numel() == 0:
+            self.refresh_dictionary_embeddings()
+        distance = torch.cdist(embedding.detach(), self.dictionary_embedding)
+        distance.scatter_(1, positive[:, None], float("inf"))
+        return distance.argmin(dim=1)
+
+    def training_loss(self, images: Tensor, target_semantic: Tensor, target_match: Tensor,
+                      epoch: int) -> tuple[Tensor, dict[str, float]]:
+        """End-to-end objective ``η L_CE + τ L_con + γ L_warp`` at ``epoch``.
+
+        Only the terms with a non-zero weight are computed.
+
+        Args:
+            images: (B, 3, H, W) RGB.
+            target_semantic: (B, H, W) class ids of the images.
+            target_match: (B,) ground-truth templates (lowest matching score).
+            epoch: 0-based epoch (see :func:`end_to_end_weights`).
+
+        Returns:
+            ``(loss, terms)``: the scalar loss and the float value of each
+            computed term (``"ce"``, ``"con"``, ``"warp"``).
+        """
+        eta, tau, gamma = end_to_end_weights(epoch)
+        logits = self.unet(images)
+        probabilities = logits.softmax(dim=1)
+        total = logits.new_zeros(())
+        terms: dict[str, float] = {}
+        if eta:
+            ce = segmentation_loss(logits, target_semantic)
+            total, terms["ce"] = total + eta * ce, ce.item()
+        if tau:
+            embedding = self.siamese(probabilities)
+            negative = self._hardest_negative(embedding, target_match)
+            partners = self.siamese(self.templates(torch.cat([target_match, negative])))
+            same = torch.cat([torch.ones_like(target_match), torch.zeros_like(negative)])
+            con = contrastive_loss(embedding.repeat(2, 1), partners, same, self.margin)
+            total, terms["con"] = total + tau * con, con.item()
+        if gamma:
+            warped = self._refine(probabilities, target_match)[2]
+            target = one_hot_maps(target_semantic, self.num_classes, warped.dtype)
+            warp = self.warp_loss(warped, target)
+            total, terms["warp"] = total + gamma * warp, warp.item()
+        return total, terms

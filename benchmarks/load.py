@@ -4,7 +4,7 @@ Generates (once, in a scratch folder) a soccer pool of 4,600 samples at 256 × 1
 draws a 4,500 / 50 / 50 split, and times in the same run:
 
 * ``load_split(store, "train", 0)``: the 4,500 images, semantic maps and
-  homographies read from the sharded, Zstd-compressed Zarr store in sorted batches;
+  homographies read from the sharded, LZ4-compressed Zarr store in sorted batches;
 * ``numpy.load`` of the same three arrays saved as uncompressed ``.npy`` files;
 
 both from the page cache (each is read once before timing), best of ``--repeat``
@@ -81,7 +81,7 @@ def main() -> None:
     on_disk = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())
     print(f"split of {SPLIT} samples, {size / 2**20:.0f} MiB in memory ({on_disk / 2**20:.0f} MiB store on disk)")
     print(f"numpy.load (.npy, uncompressed)  {t_numpy:6.2f} s")
-    print(f"load_split (Zarr, sharded, zstd) {t_split:6.2f} s   ratio {t_split / t_numpy:.2f} (target ≤ 3)")
+    print(f"load_split (Zarr, sharded, LZ4)  {t_split:6.2f} s   ratio {t_split / t_numpy:.2f} (target ≤ 3)")
     if args.zarr:
         group, index = open_store(store), read_split_indices(store, "train", 0)
         t_zarr = best_of(1, lambda: read_samples(group, index))

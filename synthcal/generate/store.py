@@ -32,6 +32,7 @@ import numpy as np
 import zarr
 from zarr.codecs import BloscCodec
 
+from synthcal.generate.shardread import read_rows
 from synthcal.generate.shardwrite import write_shard
 
 __all__ = [
@@ -150,18 +151,10 @@ def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:
 
 
 def read_samples(group: zarr.Group, index: np.ndarray) -> dict[str, np.ndarray]:
-    """Samples at ``index`` (any order), read in sorted order for speed.
+    """Samples at ``index`` (any order), read shard by shard.
 
     Returns:
         ``image`` (K, H, W, 3) uint8, ``semantic`` (K, H, W) uint8 and
         ``homography`` (K, 3, 3) float64, in the order of ``index``.
     """
-    index = np.asarray(index, dtype=np.int64)
-    order = np.argsort(index, kind="stable")
-    sorted_index = index[order]
-    inverse = np.empty_like(order)
-    inverse[order] = np.arange(len(order))
-    out = {}
-    for name in ("image", "semantic", "homography"):
-        out[name] = group[name].get_orthogonal_selection((sorted_index,))[inverse]
-    return out
+    return {name: read_rows(group[name], index) for name in ("image", "semantic", "homography")}

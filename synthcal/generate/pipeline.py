@@ -20,7 +20,6 @@ import os
 import shutil
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
@@ -40,12 +39,18 @@ __all__ = ["load_scene", "plan_homographies", "plan_cameras", "render_samples", 
 
 
 def load_scene(spec: DatasetSpec) -> Scene:
-    """The spec's scene: built in, or read from the user's PNG files."""
-    return _cached_scene(spec.config_hash(), spec)
+    """The spec's scene: built in, or read from the user's PNG files (cached per process)."""
+    key = spec.config_hash()
+    if key not in _SCENES:
+        _SCENES.clear()  # one scene per worker at a time: they are large
+        _SCENES[key] = _read_scene(spec)
+    return _SCENES[key]
 
 
-@lru_cache(maxsize=4)
-def _cached_scene(key: str, spec: DatasetSpec) -> Scene:
+_SCENES: dict[str, Scene] = {}
+
+
+def _read_scene(spec: DatasetSpec) -> Scene:
     if spec.user_scene is None:
         return build_scene(spec.scene)
     user = spec.user_scene

@@ -141,6 +141,14 @@ def render_semantic(scene_semantic: np.ndarray, homography: np.ndarray, image_si
     M = inverse_homography(homography)
     xs = np.arange(width, dtype=np.float64)
     ys = np.arange(height, dtype=np.float64)[:, None]
+    view = np.zeros((height, width), np.uint8)
+    # The ground is a half-plane of the image: only rows that see some of it are computed.
+    row_depth = M[2, 1] * ys[:, 0] + M[2, 2]
+    seen = np.flatnonzero(np.maximum(row_depth + M[2, 0] * xs[0], row_depth + M[2, 0] * xs[-1]) > 0)
+    if not len(seen):
+        return view
+    rows = slice(seen[0], seen[-1] + 1)
+    ys = ys[rows]
     depth = (M[2, 1] * ys + M[2, 2]) + M[2, 0] * xs
     visible = depth > 0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -150,7 +158,8 @@ def render_semantic(scene_semantic: np.ndarray, homography: np.ndarray, image_si
     scene_height, scene_width = scene_semantic.shape
     inside = visible & (col >= 0) & (col <= scene_width - 1) & (row >= 0) & (row <= scene_height - 1)
     flat = np.where(inside, row * scene_width + col, 0).astype(np.intp)
-    return np.where(inside, scene_semantic.reshape(-1)[flat], 0).astype(np.uint8)
+    view[rows] = np.where(inside, scene_semantic.reshape(-1)[flat], 0)
+    return view
 
 
 def render_image(
@@ -214,9 +223,9 @@ def apply_appearance(image: np.ndarray, appearance: Appearance, rng: np.random.G
     """
     offset, gain, sigma, noise_level = rng.uniform(size=4)
     uniform = np.frombuffer(rng.bytes(3 * image.size), dtype=np.uint8).reshape(3, *image.shape)
-    out = image.astype(np.float32)
     if appearance.blur_sigma > 0 and sigma * appearance.blur_sigma > 0.05:
-        out = cv2.GaussianBlur(out, (0, 0), float(sigma * appearance.blur_sigma))
+        image = cv2.GaussianBlur(image, (0, 0), float(sigma * appearance.blur_sigma))
+    out = image.astype(np.float32)
     factor = 1.0 + appearance.contrast * (2 * gain - 1)
     shift = (1.0 - factor) * float(out.mean()) + appearance.brightness * (2 * offset - 1)
     out = out * np.float32(factor) + np.float32(shift + 0.5)

@@ -155,7 +155,7 @@ def _cmd_info(args: argparse.Namespace) -> None:
           f"heading {scene['heading_deg']:g}°")
     for axis, values in (attrs["grid"] or {}).items():
         if isinstance(values, dict):
-            print(f"grid {axis:8s}{values['start']:g}..{values['stop']:g} step {values['step']:g}")
+            print(f"grid {axis:<8s} {values['start']:g}..{values['stop']:g} step {values['step']:g}")
     if attrs.get("poses"):
         parts = ", ".join(f"{name} {b - a}" for name, (a, b) in attrs["poses"]["partition"].items())
         print(f"poses        {attrs['poses']['set']}: {parts} (given cameras)")
@@ -222,7 +222,7 @@ def _cmd_demo(args: argparse.Namespace) -> None:
 # with true segmentation (the UNet is the costly part on a CPU), a few seeds.
 DEMO_DATASET = "intersection-1"
 DEMO_ESTIMATORS = ("identity", "template", "baseline", "proposed")
-DEMO_SEEDS = "0-2"
+DEMO_SEEDS = "0-4"
 
 
 def _demo_bench(args: argparse.Namespace, config: "LoadedConfig", out: Path) -> None:
@@ -232,7 +232,7 @@ def _demo_bench(args: argparse.Namespace, config: "LoadedConfig", out: Path) -> 
 
     seeds = parse_seeds(DEMO_SEEDS)
     store = store_path(out, DEMO_DATASET)
-    _print_draw(draw_splits(store, seeds, mixed=False))
+    _print_draw(draw_splits(store, seeds))
     training = config.training(args.profile)
     print(f"benchmark: {DEMO_DATASET}, seeds {DEMO_SEEDS}, {', '.join(DEMO_ESTIMATORS)}; "
           f"segmentation {training.segmentation}, training step-by-step, loss top-mse, matching top-mse")

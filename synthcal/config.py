@@ -197,6 +197,8 @@ class TrainingSettings(_Strict):
     step-by-step training; ``end_to_end_epochs`` is the whole end-to-end
     schedule, whose warm-up thresholds (SPEC §7: 20 and 40 of the paper's 100)
     scale with it (:func:`synthcal.eval.training.end_to_end_stage`).
+    ``scene_downsample`` reduces the bird's-eye map that ``L_warp`` samples, which
+    anti-aliases it (:mod:`synthcal.eval.training`).
     """
 
     work_size: tuple[int, int] | None = None
@@ -212,6 +214,7 @@ class TrainingSettings(_Strict):
     stn_width: int = Field(32, ge=1)
     stn_epochs: int = Field(40, ge=1)
     end_to_end_epochs: int = Field(100, ge=3)
+    scene_downsample: int = Field(4, ge=1)
 
     @field_validator("work_size")
     @classmethod

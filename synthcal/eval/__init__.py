@@ -11,15 +11,18 @@ from synthcal.eval.estimators import (
     EstimatorError,
     IdentityEstimator,
     Segmenter,
+    SemanticEstimator,
     TemplateEstimator,
     known_estimators,
     load_estimator,
+    resolve_estimator,
 )
 from synthcal.eval.metrics import check_homography, completeness, evaluate, iou, iou_part, iou_whole, summarize
 from synthcal.eval.tables import LAYOUTS, aggregate, format_table, paper_results, table_frame
 
 __all__ = [
     "Estimator",
+    "SemanticEstimator",
     "Segmenter",
     "EstimatorError",
     "IdentityEstimator",
@@ -27,6 +30,7 @@ __all__ = [
     "ECCEstimator",
     "known_estimators",
     "load_estimator",
+    "resolve_estimator",
     "check_homography",
     "iou",
     "iou_part",

@@ -20,6 +20,12 @@ An estimator is any class with
   bird's-eye → image homographies as float64, any positive or negative scale
   (the harness fixes the sign, SPEC §2). A row may be NaN where the estimator
   gives up: the image is then counted as a failure (SPEC §8).
+* optional ``predict_semantic(semantics) -> (B, 3, 3)`` — the same from the
+  images' (B, H, W) uint8 class maps instead of their pixels
+  (:class:`SemanticEstimator`). Under ``segmentation: ground-truth`` (SPEC §7) the
+  harness calls it with the *true* class maps of the test images, so that the
+  segmentation is the same, perfect, for every compared estimator; estimators
+  without it are unaffected by that setting.
 
 ``load_estimator(name_or_path, **options)`` turns a command-line/config value
 into an instance: a dotted path ``package.module:Class``, a name in the
@@ -43,6 +49,8 @@ Bundled here (the learned models live in :mod:`synthcal.models`)
     ``template``, then refined by OpenCV's ECC (``MOTION_HOMOGRAPHY``) between the
     template's and the image's semantic maps: ``H = W · H_k`` with ``W`` the found
     template-pixel → image-pixel warp.
+``proposed``, ``baseline`` (alias ``sha2020``)
+    The paper's models, UNet → Siamese → STN (:mod:`synthcal.eval.paper_models`).
 """
 
 from __future__ import annotations
@@ -57,6 +65,7 @@ import numpy as np
 __all__ = [
     "ENTRY_POINT_GROUP",
     "Estimator",
+    "SemanticEstimator",
     "Segmenter",
     "EstimatorError",
     "ColourSegmenter",
@@ -65,6 +74,7 @@ __all__ = [
     "ECCEstimator",
     "BUNDLED",
     "known_estimators",
+    "resolve_estimator",
     "load_estimator",
     "one_hot",
     "match_templates",
@@ -85,6 +95,14 @@ class Estimator(Protocol):
 
     def predict(self, images: np.ndarray) -> np.ndarray:
         """(B, H, W, 3) uint8 RGB → (B, 3, 3) float64 bird's-eye → image homographies."""
+
+
+@runtime_checkable
+class SemanticEstimator(Estimator, Protocol):
+    """An estimator that can also work from class maps (``segmentation: ground-truth``)."""
+
+    def predict_semantic(self, semantics: np.ndarray) -> np.ndarray:
+        """(B, H, W) uint8 class ids → (B, 3, 3) float64 bird's-eye → image homographies."""
 
 
 @runtime_checkable
@@ -322,14 +340,21 @@ class TemplateEstimator:
             ``(indices, semantics)``: (B,) template indices and the (B, H, W)
             segmentations.
         """
+        semantics = self.segmenter(np.asarray(images))
+        return self.match_semantic(semantics), semantics
+
+    def match_semantic(self, semantics: np.ndarray) -> np.ndarray:
+        """(B,) indices of the templates nearest (MSE) to (B, H, W) class maps."""
         if self.templates is None:
             raise RuntimeError(f"{type(self).__name__}: call fit() first")
-        semantics = self.segmenter(np.asarray(images))
-        return match_templates(one_hot(semantics, self.stride), self.templates), semantics
+        return match_templates(one_hot(semantics, self.stride), self.templates)
 
     def predict(self, images: np.ndarray) -> np.ndarray:
-        indices, _ = self.match(images)
-        return self.template_homographies[indices].copy()
+        return self.predict_semantic(self.segmenter(np.asarray(images)))
+
+    def predict_semantic(self, semantics: np.ndarray) -> np.ndarray:
+        """The matched templates' homographies for (B, H, W) class maps."""
+        return self.template_homographies[self.match_semantic(semantics)].copy()
 
 
 class ECCEstimator(TemplateEstimator):
@@ -354,8 +379,9 @@ class ECCEstimator(TemplateEstimator):
         super().__init__(segmenter, stride, fit_segmenter)
         self.iterations, self.eps, self.blur = iterations, eps, blur
 
-    def predict(self, images: np.ndarray) -> np.ndarray:
-        indices, semantics = self.match(images)
+    def predict_semantic(self, semantics: np.ndarray) -> np.ndarray:
+        semantics = np.asarray(semantics)
+        indices = self.match_semantic(semantics)
         out = self.template_homographies[indices].copy()
         for k, (index, semantic) in enumerate(zip(indices, semantics)):
             warp = ecc_warp(self.template_semantics[index], semantic, self.iterations, self.eps, self.blur)
@@ -370,6 +396,9 @@ BUNDLED: dict[str, str] = {
     "identity": "synthcal.eval.estimators:IdentityEstimator",
     "template": "synthcal.eval.estimators:TemplateEstimator",
     "ecc": "synthcal.eval.estimators:ECCEstimator",
+    "proposed": "synthcal.eval.paper_models:ProposedEstimator",
+    "baseline": "synthcal.eval.paper_models:BaselineEstimator",
+    "sha2020": "synthcal.eval.paper_models:BaselineEstimator",
 }
 
 
@@ -403,25 +432,18 @@ def _import_dotted(path: str) -> Any:
     return obj
 
 
-def load_estimator(name_or_path: str, **options: Any) -> Estimator:
-    """Instantiate an estimator from a command-line or config value.
+def resolve_estimator(name_or_path: str) -> Any:
+    """The class (or factory) a command-line or config value names, not instantiated.
 
     Resolution order: a value containing ``:`` is a dotted path
     ``package.module:Class``; otherwise a bundled short name (``identity``,
-    ``template``, ``ecc`` — bundled names cannot be shadowed by third-party
-    packages); otherwise an entry point of that name in group
-    ``synthcal.estimators``.
-
-    Args:
-        name_or_path: the value to resolve.
-        **options: keyword arguments for the class's constructor.
-
-    Returns:
-        The estimator instance.
+    ``template``, ``ecc``, ``proposed``, ``baseline`` — bundled names cannot be
+    shadowed by third-party packages); otherwise an entry point of that name in
+    group ``synthcal.estimators``.
 
     Raises:
         EstimatorError: the value cannot be resolved (the message names it and
-            lists the known names), or the object has no ``fit``/``predict``.
+            lists the known names), or it is not callable.
     """
     value = str(name_or_path)
     if ":" in value:
@@ -443,6 +465,25 @@ def load_estimator(name_or_path: str, **options: Any) -> Estimator:
                                  f"failed to load ({error})") from error
     if not callable(cls):
         raise EstimatorError(f"estimator {value!r}: {cls!r} is not a class or factory")
+    return cls
+
+
+def load_estimator(name_or_path: str, **options: Any) -> Estimator:
+    """Instantiate an estimator from a command-line or config value.
+
+    Args:
+        name_or_path: the value to resolve (see :func:`resolve_estimator`).
+        **options: keyword arguments for the class's constructor.
+
+    Returns:
+        The estimator instance.
+
+    Raises:
+        EstimatorError: the value cannot be resolved, the options do not fit the
+            constructor, or the object has no ``fit``/``predict``.
+    """
+    value = str(name_or_path)
+    cls = resolve_estimator(value)
     try:
         estimator = cls(**options)
     except TypeError as error:  # e.g. an option the class does not take

@@ -1,0 +1,512 @@
+"""Training the stages of the paper's models (SPEC §7), and caching the shared ones.
+
+The stages
+----------
+* :func:`train_unet` — RGB → 4-class logits, cross-entropy against the true maps.
+* :func:`train_siamese` — embeds (B, 4, h, w) maps: the UNet's probabilities, or
+  the true one-hot maps under ``segmentation: ground-truth``. Each train map is
+  paired with its ground-truth template (similar: the dictionary template of
+  lowest matching score, :func:`synthcal.models.match_ground_truth`) and with two
+  dissimilar ones: the hardest other template under the current embeddings
+  (refreshed every epoch) and a random other one; contrastive loss.
+* :func:`train_stn` — the STN reads (input map ⊕ ground-truth template), 8
+  channels, and is trained with ``L_warp(Ŷ, Y)``: ``Ŷ`` the scene warped by the
+  composed estimate, ``Y`` the scene warped by the true homography through the
+  same bilinear, cheirality-masked renderer, so a perfect estimate costs exactly 0.
+  The template is the ground-truth one (teacher forcing, as in
+  :class:`synthcal.models.CompositeModel`): retrieval is trained separately.
+* :func:`train_end_to_end` — :meth:`CompositeModel.training_loss` under the warm-up
+  schedule scaled to the profile's epoch count (:func:`end_to_end_stage`).
+
+Working resolution
+------------------
+Networks see maps of ``work_size`` ``(w, h)``, which may be smaller than the
+store's ``(W, H)``. Pixel centres correspond by
+``x_w = (x + 0.5) · w / W − 0.5`` (same for rows), the affine matrix ``A`` of
+:func:`resolution_matrix`; a homography ``H`` of the full image is ``A H`` at the
+working resolution and back by ``A⁻¹``. Class maps are reduced by averaging their
+one-hot maps over each output pixel's footprint (area interpolation, exact for
+integer factors) and taking the most frequent class; RGB by area averaging.
+Ground-truth matching always uses the full-resolution maps, its definition.
+
+Anti-aliased scene
+------------------
+``L_warp`` compares views rendered by bilinear sampling of the bird's-eye map.
+Where a view pixel covers many scene pixels (far ground, short focal), point
+samples of the full-resolution map alias, and their gradient with respect to
+``H`` exists only within one scene pixel of a class boundary: most of the view
+gives no signal. The loss therefore samples the one-hot scene reduced by
+``scene_downsample`` (area average: soft boundaries a few pixels wide) through
+``H D⁻¹`` (``D`` the same pixel-centre map as ``A``). Prediction and target go
+through the same renderer, so the true homography still costs exactly 0; the
+estimates themselves are untouched.
+
+Caching
+-------
+:class:`StageCache` keeps ``state_dict``\\ s under ``<root>/<stage>/<key>.pt``, the
+key a hash of everything that determines the stage (the data's bytes, sizes,
+epochs, seed), written atomically (temporary name, then ``os.replace``), so a
+reader sees a whole file or none. Two processes training the same stage at once
+both train it; the last rename wins (both files are valid).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+from tqdm.auto import tqdm
+
+from synthcal.models import (
+    CompositeModel,
+    SiameseNet,
+    UNet,
+    compose_homography,
+    contrastive_loss,
+    nearest_embeddings,
+    one_hot_maps,
+    segmentation_loss,
+    warp_loss,
+    warp_semantic,
+)
+
+__all__ = [
+    "NUM_CLASSES",
+    "PAPER_END_TO_END_EPOCHS",
+    "resolution_matrix",
+    "reduce_class_maps",
+    "reduce_images",
+    "digest",
+    "StageCache",
+    "TrainingData",
+    "reduce_scene",
+    "composite_model",
+    "ClassMapLogits",
+    "input_maps",
+    "embed_templates",
+    "train_unet",
+    "train_siamese",
+    "train_stn",
+    "end_to_end_stage",
+    "train_end_to_end",
+    "estimate",
+]
+
+NUM_CLASSES = 4
+# The paper's warm-up thresholds (20, 40) read as fractions of a 100-epoch schedule.
+PAPER_END_TO_END_EPOCHS = 100
+_CHUNK = 256
+
+
+# --- resolution ----------------------------------------------------------------------------
+
+
+def resolution_matrix(full_size: tuple[int, int], work_size: tuple[int, int]) -> np.ndarray:
+    """``A``: full-image pixels → working-resolution pixels (pixel centres kept).
+
+    Args:
+        full_size: ``(W, H)`` of the stored images.
+        work_size: ``(w, h)`` the networks use.
+
+    Returns:
+        (3, 3) float64 affine matrix.
+    """
+    sx, sy = work_size[0] / full_size[0], work_size[1] / full_size[1]
+    return np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
+
+
+def reduce_class_maps(semantics: np.ndarray, work_size: tuple[int, int]) -> Tensor:
+    """(K, H, W) class ids → (K, h, w) uint8 class ids (most frequent in the footprint)."""
+    semantics = np.asarray(semantics)
+    if semantics.shape[-1:-3:-1] == tuple(work_size):
+        return torch.from_numpy(semantics.astype(np.uint8))
+    out = []
+    for start in range(0, len(semantics), _CHUNK):
+        maps = one_hot_maps(torch.from_numpy(semantics[start:start + _CHUNK]), NUM_CLASSES)
+        out.append(F.interpolate(maps, size=work_size[::-1], mode="area").argmax(1).to(torch.uint8))
+    return torch.cat(out) if out else torch.empty(0, *work_size[::-1], dtype=torch.uint8)
+
+
+def reduce_images(images: np.ndarray, work_size: tuple[int, int]) -> Tensor:
+    """(K, H, W, 3) uint8 RGB → (K, 3, h, w) uint8 (area average)."""
+    out = []
+    for start in range(0, len(images), _CHUNK):
+        chunk = torch.from_numpy(np.asarray(images[start:start + _CHUNK])).permute(0, 3, 1, 2)
+        if chunk.shape[-1:-3:-1] != tuple(work_size):
+            chunk = F.interpolate(chunk.float(), size=work_size[::-1], mode="area").round().to(torch.uint8)
+        out.append(chunk.contiguous())
+    return torch.cat(out) if out else torch.empty(0, 3, *work_size[::-1], dtype=torch.uint8)
+
+
+# --- cache ---------------------------------------------------------------------------------
+
+
+def digest(*parts: Any) -> str:
+    """Hex digest of arrays (shape, dtype and bytes) and JSON-able values, in order."""
+    h = hashlib.blake2b(digest_size=16)
+    for part in parts:
+        if isinstance(part, (np.ndarray, Tensor)):
+            array = np.ascontiguousarray(part.cpu().numpy() if isinstance(part, Tensor) else part)
+            h.update(f"{array.shape}{array.dtype}".encode())
+            h.update(memoryview(array).cast("B"))
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
+class StageCache:
+    """Trained stages on disk, ``<root>/<stage>/<key>.pt`` (module docstring).
+
+    Args:
+        root: the cache folder (created on first write); None disables caching.
+    """
+
+    def __init__(self, root: str | Path | None) -> None:
+        self.root = None if root is None else Path(root)
+
+    def path(self, stage: str, key: str) -> Path | None:
+        return None if self.root is None else self.root / stage / f"{key}.pt"
+
+    def load(self, stage: str, key: str) -> Any | None:
+        """The stored object, or None when absent (or caching is off)."""
+        path = self.path(stage, key)
+        if path is None or not path.is_file():
+            return None
+        return torch.load(path, map_location="cpu", weights_only=True)
+
+    def save(self, stage: str, key: str, obj: Any) -> None:
+        """Store ``obj`` (tensors, state dicts) atomically."""
+        path = self.path(stage, key)
+        if path is None:
+            return
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
+        os.close(fd)
+        try:
+            torch.save(obj, tmp)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+
+    def cached(self, stage: str, key: str, build: Callable[[], Any]) -> tuple[Any, bool]:
+        """``(obj, trained)``: the stored object, or ``build()`` stored then returned."""
+        obj = self.load(stage, key)
+        if obj is not None:
+            return obj, False
+        obj = build()
+        self.save(stage, key, obj)
+        return obj, True
+
+
+# --- data ----------------------------------------------------------------------------------
+
+
+@dataclass
+class TrainingData:
+    """A train split and its dictionary at the working resolution (CPU tensors).
+
+    Attributes:
+        images: (K, 3, h, w) uint8 RGB, or None when no UNet is trained.
+        semantics: (K, h, w) uint8 class ids.
+        homographies: (K, 3, 3) float64 working-resolution homographies ``A H``.
+        match: (K,) int64 ground-truth template of each train item.
+        templates: (T, h, w) uint8 class ids of the dictionary.
+        template_homographies: (T, 3, 3) float64 working-resolution ``A H_k``.
+        scene: (4, hs, ws) float one-hot bird's-eye scene, reduced by ``scene_downsample``.
+        scene_frame: (3, 3) float64 ``D⁻¹``: reduced-scene pixels → scene pixels; the
+            loss warps ``scene`` by ``H @ scene_frame``.
+        work_size: ``(w, h)``.
+    """
+
+    images: Tensor | None
+    semantics: Tensor
+    homographies: Tensor
+    match: Tensor
+    templates: Tensor
+    template_homographies: Tensor
+    scene: Tensor
+    scene_frame: Tensor
+    work_size: tuple[int, int]
+
+    def __len__(self) -> int:
+        return len(self.semantics)
+
+
+def reduce_scene(semantic: np.ndarray, factor: int) -> tuple[Tensor, Tensor]:
+    """The anti-aliased scene of the loss (module docstring).
+
+    Args:
+        semantic: (Hs, Ws) class ids.
+        factor: reduction factor (1: the scene itself, one-hot).
+
+    Returns:
+        ``(scene, scene_frame)``: (4, ⌈Hs/f⌉, ⌈Ws/f⌉) float32 soft one-hot map and the
+        (3, 3) float64 ``D⁻¹`` from its pixels to the scene's.
+    """
+    maps = one_hot_maps(torch.from_numpy(np.asarray(semantic, np.uint8)), NUM_CLASSES)
+    height, width = maps.shape[-2:]
+    size = (-(-width // factor), -(-height // factor))
+    if factor > 1:
+        maps = F.interpolate(maps[None], size=size[::-1], mode="area")[0]
+    D = resolution_matrix((width, height), size)
+    return maps.contiguous(), torch.from_numpy(np.linalg.inv(D))
+
+
+def _batches(n: int, batch_size: int, generator: torch.Generator) -> Iterator[Tensor]:
+    """Shuffled index batches covering ``0..n-1`` once."""
+    order = torch.randperm(n, generator=generator)
+    yield from order.split(batch_size)
+
+
+def _record(log: list[float] | None, losses: list[float]) -> None:
+    """Append an epoch's mean loss to ``log`` (if one is kept)."""
+    if log is not None and losses:
+        log.append(float(np.mean(losses)))
+
+
+def _epochs(epochs: int, desc: str, progress: bool) -> tqdm:
+    return tqdm(range(epochs), desc=desc, leave=False, disable=not progress, unit="epoch")
+
+
+class ClassMapLogits(nn.Module):
+    """Stands in for the UNet under ``segmentation: ground-truth``: one-hot maps → logits.
+
+    ``softmax(20 · onehot)`` is the one-hot map to within ``4e-9``, so the rest of
+    :class:`CompositeModel` runs unchanged on true maps. No parameters.
+    """
+
+    def forward(self, x: Tensor) -> Tensor:
+        return 20.0 * x
+
+
+def _float_images(images: Tensor, device: torch.device) -> Tensor:
+    return images.to(device, non_blocking=True).float().div_(255.0)
+
+
+def input_maps(data: TrainingData, index: Tensor, unet: nn.Module | None, device: torch.device) -> Tensor:
+    """(B, 4, h, w) maps the Siamese and STN read: UNet probabilities or true one-hot maps.
+
+    The UNet, if given, is frozen here (no gradient, eval mode by the caller).
+    """
+    if unet is None:
+        return one_hot_maps(data.semantics[index].to(device), NUM_CLASSES)
+    with torch.no_grad():
+        return unet(_float_images(data.images[index], device)).softmax(dim=1)
+
+
+def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tensor:
+    """(B, 4, h, w) one-hot maps of templates ``index``."""
+    return one_hot_maps(data.templates[index].to(device), NUM_CLASSES)
+
+
+# --- stages --------------------------------------------------------------------------------
+
+
+def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr: float, device: torch.device,
+               seed: int = 0, progress: bool = False, log: list[float] | None = None) -> UNet:
+    """Cross-entropy training of ``unet`` on the train images (SPEC §7). Returns it, trained.
+
+    ``log``, if given, receives the mean loss of every epoch (as for every stage).
+    """
+    torch.manual_seed(seed)
+    generator = torch.Generator().manual_seed(seed)
+    unet.to(device).train()
+    optimiser = torch.optim.Adam(unet.parameters(), lr=lr)
+    bar = _epochs(epochs, "unet", progress)
+    for _ in bar:
+        losses: list[float] = []
+        for index in _batches(len(data), batch_size, generator):
+            loss = segmentation_loss(unet(_float_images(data.images[index], device)),
+                                     data.semantics[index].to(device))
+            optimiser.zero_grad(set_to_none=True)
+            loss.backward()
+            optimiser.step()
+            losses.append(loss.item())
+            bar.set_postfix(loss=f"{losses[-1]:.4f}")
+        _record(log, losses)
+    return unet.eval()
+
+
+@torch.no_grad()
+def embed_templates(siamese: SiameseNet, data: TrainingData, device: torch.device, batch_size: int = 256) -> Tensor:
+    """(T, D) embeddings of every template, in eval mode (then back to the previous mode)."""
+    was_training = siamese.training
+    siamese.eval()
+    index = torch.arange(len(data.templates))
+    out = torch.cat([siamese(_templates(data, chunk, device)) for chunk in index.split(batch_size)])
+    siamese.train(was_training)
+    return out
+
+
+def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | None, epochs: int, batch_size: int,
+                  lr: float, device: torch.device, seed: int = 0, margin: float = 1.0,
+                  progress: bool = False, log: list[float] | None = None) -> SiameseNet:
+    """Contrastive training on (input map, template) pairs (module docstring). Returns it, trained."""
+    torch.manual_seed(seed)
+    generator = torch.Generator().manual_seed(seed)
+    siamese.to(device).train()
+    optimiser = torch.optim.Adam(siamese.parameters(), lr=lr)
+    n_templates = len(data.templates)
+    bar = _epochs(epochs, "siamese", progress)
+    for _ in bar:
+        losses: list[float] = []
+        dictionary = embed_templates(siamese, data, device)
+        for index in _batches(len(data), batch_size, generator):
+            anchor = siamese(input_maps(data, index, unet, device))
+            positive = data.match[index]
+            partners = [positive]
+            if n_templates > 1:
+                distance = torch.cdist(anchor.detach(), dictionary).cpu()
+                distance[torch.arange(len(index)), positive] = float("inf")
+                shift = torch.randint(1, n_templates, (len(index),), generator=generator)
+                partners += [distance.argmin(dim=1), (positive + shift) % n_templates]
+            partners = torch.cat(partners)
+            same = torch.zeros(len(partners), device=device)
+            same[: len(index)] = 1.0
+            embedded = siamese(_templates(data, partners, device))
+            loss = contrastive_loss(anchor.repeat(len(partners) // len(index), 1), embedded, same, margin)
+            optimiser.zero_grad(set_to_none=True)
+            loss.backward()
+            optimiser.step()
+            losses.append(loss.item())
+            bar.set_postfix(loss=f"{losses[-1]:.4f}")
+        _record(log, losses)
+    return siamese.eval()
+
+
+def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss_name: str, epochs: int,
+              batch_size: int, lr: float, device: torch.device, seed: int = 0, progress: bool = False,
+              log: list[float] | None = None) -> nn.Module:
+    """``L_warp`` training of an STN on (input map ⊕ ground-truth template). Returns it, trained."""
+    torch.manual_seed(seed)
+    generator = torch.Generator().manual_seed(seed)
+    stn.to(device).train()
+    optimiser = torch.optim.Adam(stn.parameters(), lr=lr)
+    criterion = warp_loss(loss_name)
+    scene, frame = data.scene.to(device), data.scene_frame.to(device)
+    bar = _epochs(epochs, f"stn {loss_name}", progress)
+    for _ in bar:
+        losses: list[float] = []
+        for index in _batches(len(data), batch_size, generator):
+            template = data.match[index]
+            maps = torch.cat([input_maps(data, index, unet, device), _templates(data, template, device)], dim=1)
+            H = compose_homography(stn(maps), data.template_homographies[template].to(device), data.work_size)
+            with torch.no_grad():
+                target = warp_semantic(scene, data.homographies[index].to(device) @ frame, data.work_size)
+            loss = criterion(warp_semantic(scene, H @ frame, data.work_size), target)
+            optimiser.zero_grad(set_to_none=True)
+            loss.backward()
+            optimiser.step()
+            losses.append(loss.item())
+            bar.set_postfix(loss=f"{losses[-1]:.4f}")
+        _record(log, losses)
+    return stn.eval()
+
+
+def end_to_end_stage(epoch: int, epochs: int, with_unet: bool = True) -> int:
+    """The paper-schedule epoch that 0-based ``epoch`` of ``epochs`` plays.
+
+    SPEC §7's thresholds 20 and 40 are read as 20 % and 40 % of a
+    :data:`PAPER_END_TO_END_EPOCHS` (100) epoch schedule, scaled to ``epochs``
+    with at least one epoch per phase: segmentation for the first
+    ``t1 = max(1, round(0.2 E))`` epochs, embedding until ``t2 = max(t1 + 1,
+    round(0.4 E))``, then the joint loss. The result feeds
+    :func:`synthcal.models.end_to_end_weights`. Without a UNet
+    (``segmentation: ground-truth``) there is nothing to segment: the first phase
+    is skipped, so the schedule is ``epochs − t1`` epochs long and ``epoch``
+    counts from ``t1``.
+
+    >>> [end_to_end_stage(e, 5) for e in range(5)]
+    [0, 20, 40, 41, 42]
+    >>> [end_to_end_stage(e, 100) for e in (19, 20, 39, 40)]
+    [19, 20, 39, 40]
+    """
+    t1 = max(1, round(0.2 * epochs))
+    t2 = max(t1 + 1, round(0.4 * epochs))
+    if not with_unet:
+        epoch += t1
+    p1, p2 = 0.2 * PAPER_END_TO_END_EPOCHS, 0.4 * PAPER_END_TO_END_EPOCHS
+    if epoch < t1:
+        return int(epoch * p1 // t1)
+    if epoch < t2:
+        return int(p1 + (epoch - t1) * (p2 - p1) // (t2 - t1))
+    return int(p2) + epoch - t2
+
+
+def composite_model(unet: nn.Module, siamese: SiameseNet, stn: nn.Module, data: TrainingData,
+                    loss_name: str) -> CompositeModel:
+    """:class:`CompositeModel` over the anti-aliased scene of the loss.
+
+    Its templates' homographies are given in the reduced scene's frame
+    (``A H_k D⁻¹``), so every homography it composes is too, and its scene buffer
+    is replaced by the soft reduced map (a registered buffer: it follows ``.to``).
+    Used for training only; estimates come from :func:`estimate`.
+    """
+    model = CompositeModel(unet, siamese, stn, data.scene.argmax(0), data.templates,
+                           data.template_homographies @ data.scene_frame, NUM_CLASSES, loss_name.replace("-", "_"))
+    model.scene = data.scene.clone()
+    return model
+
+
+def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool, epochs: int, batch_size: int,
+                     lr: float, device: torch.device, seed: int = 0, progress: bool = False,
+                     log: list[float] | None = None) -> CompositeModel:
+    """``η L_CE + τ L_con + γ L_warp`` under the scaled warm-up (:func:`end_to_end_stage`).
+
+    Without a UNet the model's ``unet`` is a :class:`ClassMapLogits` and its
+    inputs are the true one-hot maps.
+    """
+    torch.manual_seed(seed)
+    generator = torch.Generator().manual_seed(seed)
+    model.to(device).train()
+    optimiser = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=lr)
+    skipped = 0 if with_unet else max(1, round(0.2 * epochs))
+    bar = _epochs(epochs - skipped, "end-to-end", progress)
+    for epoch in bar:
+        losses: list[float] = []
+        stage = end_to_end_stage(epoch, epochs, with_unet)
+        model.refresh_dictionary_embeddings()
+        for index in _batches(len(data), batch_size, generator):
+            semantics = data.semantics[index].to(device)
+            inputs = (_float_images(data.images[index], device) if with_unet
+                      else one_hot_maps(semantics, NUM_CLASSES))
+            loss, terms = model.training_loss(inputs, semantics, data.match[index].to(device), stage)
+            optimiser.zero_grad(set_to_none=True)
+            loss.backward()
+            optimiser.step()
+            losses.append(loss.item())
+            bar.set_postfix(stage=stage, **{k: f"{v:.4f}" for k, v in terms.items()})
+        _record(log, losses)
+    return model.eval()
+
+
+@torch.no_grad()
+def estimate(maps: Tensor, siamese: nn.Module, stn: nn.Module, dictionary_embedding: Tensor,
+             templates: Tensor, template_homographies: Tensor, work_size: tuple[int, int]) -> Tensor:
+    """Inference: retrieve each map's nearest template, refine it with the STN.
+
+    Args:
+        maps: (B, 4, h, w) input maps (UNet probabilities or one-hot), on the device.
+        siamese: embedding network (eval mode).
+        stn: (B, 8, h, w) → (B, 8) (eval mode).
+        dictionary_embedding: (T, D) template embeddings.
+        templates: (T, h, w) uint8 template class ids, on the device.
+        template_homographies: (T, 3, 3) float64 working-resolution ``A H_k``.
+        work_size: ``(w, h)``.
+
+    Returns:
+        (B, 3, 3) float64 working-resolution homographies.
+    """
+    match = nearest_embeddings(siamese(maps), dictionary_embedding).index
+    h_bar = stn(torch.cat([maps, one_hot_maps(templates[match], NUM_CLASSES, maps.dtype)], dim=1))
+    return compose_homography(h_bar, template_homographies[match], work_size)

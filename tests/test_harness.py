@@ -1,0 +1,162 @@
+"""The bench harness end to end on smoke stores: oracle, failures, resume, Dask, CLI."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from synthcal.cli import main
+from synthcal.config import load_config
+from synthcal.eval.harness import collect_results, execute_run, expand_runs, run_sweep, table_runs
+from synthcal.eval.tables import format_table
+from synthcal.generate.pipeline import generate_dataset
+from synthcal.generate.splits import SplitError, draw_splits
+
+ROOT = Path(__file__).resolve().parents[1]
+ORACLE = "synthcal_oracle_plugin:OracleEstimator"
+FAULTY = "synthcal_faulty_plugins"
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory) -> Path:
+    """The five intersections at smoke size; intersection-1 with seeds 0, 1 and its mixed dictionary."""
+    config = load_config(ROOT / "datasets.yaml")
+    out = tmp_path_factory.mktemp("bench-data")
+    for k in range(1, 6):
+        generate_dataset(config.resolve(f"intersection-{k}", "smoke"), out, progress=False)
+    draw_splits(out / "intersection-1.zarr", seeds=[0, 1])
+    return out
+
+
+@pytest.fixture(autouse=True)
+def plugins(monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT / "tests"))
+
+
+def bench(data: Path, results: Path, *estimators: str, seeds: str = "0-1", extra: tuple = ()) -> int:
+    return main(["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", *estimators,
+                 "--seeds", seeds, "--results", str(results), "--profile", "smoke", "--device", "cpu", "--quiet",
+                 *extra])
+
+
+def test_oracle_scores_one_through_bench(data, tmp_path, capsys):
+    assert bench(data, tmp_path, ORACLE, "identity") == 0
+    frame = collect_results(tmp_path)
+    oracle = frame[frame["model"] == "OracleEstimator"]
+    assert len(oracle) == 2 and (oracle["status"] == "ok").all()
+    assert (oracle["iou"] == 1.0).all() and (oracle["completeness"] == 1.0).all()
+    for run_id in oracle["run_id"]:
+        per_image = pd.read_csv(tmp_path / "runs" / run_id / "metrics.csv")
+        assert len(per_image) == 8 and (per_image["iou"] == 1.0).all() and not per_image["failed"].any()
+    assert "| intersection-1 | 100.00 ± 0.00 |" in capsys.readouterr().out.replace("**", "")
+
+
+def test_failing_estimators_score_zero_and_the_sweep_goes_on(data, tmp_path):
+    estimators = (f"{FAULTY}:RaisingEstimator", f"{FAULTY}:NaNEstimator", "identity")
+    assert bench(data, tmp_path, *estimators) == 0
+    frame = collect_results(tmp_path).set_index("model")
+    for model, reason in (("RaisingEstimator", "predict: ValueError: this estimator always fails"),
+                          ("NaNEstimator", "non-finite entries")):
+        rows = frame.loc[[model]]
+        assert (rows["iou"] == 0).all() and (rows["completeness"] == 0).all() and len(rows) == 2
+        per_image = pd.read_csv(tmp_path / "runs" / rows["run_id"].iloc[0] / "metrics.csv")
+        assert per_image["failed"].all() and (per_image["failure"] == reason).all()
+    assert (frame.loc[["RaisingEstimator"], "status"] == "failed").all()
+    identity = frame.loc[["identity"]]
+    assert (identity["completeness"] == 1).all() and (identity["iou"] > 0).all()
+
+
+def test_killed_sweep_resumes_to_the_same_table(data, tmp_path, monkeypatch):
+    estimators = ["identity", f"{FAULTY}:InterruptingEstimator", "template"]
+    runs = expand_runs(data, ["intersection-1"], estimators, [0, 1])
+    assert [r.model for r in runs] == ["identity"] * 2 + ["InterruptingEstimator"] * 2 + ["template"] * 2
+    reference = run_sweep(runs, tmp_path / "uninterrupted", device="cpu", progress=False)
+
+    marker = tmp_path / "interrupt-now"
+    marker.touch()
+    monkeypatch.setenv("SYNTHCAL_TEST_INTERRUPT", str(marker))
+    results = tmp_path / "interrupted"
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(runs, results, device="cpu", progress=False)
+    finished = {p.parent.name: p.stat().st_mtime_ns for p in (results / "runs").glob("*/run.json")}
+    assert len(finished) == 2  # the two identity runs, before the interruption
+    assert not any((results / "runs" / runs[2].id).glob("*.csv"))
+
+    resumed = run_sweep(runs, results, device="cpu", progress=False)
+    assert {name: (results / "runs" / name / "run.json").stat().st_mtime_ns for name in finished} == finished
+    assert len(resumed) == len(runs)
+    assert format_table(table_runs(resumed), "models") == format_table(table_runs(reference), "models")
+
+
+def test_axes_collapse_and_ids_are_stable(data):
+    runs = expand_runs(data, ["intersection-1"], ["identity", "proposed"], [0, 1],
+                       losses=("top-mse", "mse"), segmentations=("ground-truth",))
+    identity = [r for r in runs if r.model == "identity"]
+    proposed = [r for r in runs if r.model == "proposed"]
+    assert len(identity) == 2 and all(r.loss is None and r.segmentation is None for r in identity)
+    assert len(proposed) == 4 and {r.loss for r in proposed} == {"top-mse", "mse"}
+    assert all(r.training == "step-by-step" and r.segmentation == "ground-truth" for r in proposed)
+    again = expand_runs(data, ["intersection-1"], ["identity", "proposed"], [0, 1],
+                        losses=("top-mse", "mse"), segmentations=("ground-truth",))
+    assert [r.id for r in again] == [r.id for r in runs] and len({r.id for r in runs}) == 6
+
+
+def test_missing_seed_or_store_stops_before_running(data, tmp_path, capsys):
+    with pytest.raises(SplitError, match="seed"):
+        expand_runs(data, ["intersection-1"], ["identity"], [7])
+    assert bench(data, tmp_path, "identity", seeds="7") == 2
+    assert main(["bench", "--data", str(data), "--datasets", "nowhere", "--estimator", "identity",
+                 "--results", str(tmp_path), "--seeds", "0"]) == 2
+    assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", "no-such",
+                 "--results", str(tmp_path), "--seeds", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "no such store" in err and "unknown estimator 'no-such'" in err
+    assert not (tmp_path / "runs").exists()
+
+
+def test_mixed_dictionary_runs_under_its_paper_label(data, tmp_path):
+    runs = expand_runs(data, ["mixed-1"], ["template"], [0])
+    assert runs[0].mixed is True and runs[0].store.endswith("intersection-1.zarr")
+    folder = execute_run(runs[0], tmp_path, device="cpu")
+    record = json.loads((folder / "run.json").read_text())
+    assert record["status"] == "ok" and record["run"]["dataset"] == "mixed-1"
+    frame = collect_results(tmp_path)
+    assert "| mixed-1 |" in format_table(frame, "mixed")
+
+
+def test_dask_scheduler_gives_the_same_results(data, tmp_path):
+    from dask.distributed import LocalCluster
+
+    runs = expand_runs(data, ["intersection-1"], ["identity", ORACLE], [0, 1])
+    local = run_sweep(runs, tmp_path / "local", device="cpu", progress=False)
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+        remote = run_sweep(runs, tmp_path / "dask", device="cpu", scheduler=cluster.scheduler_address, progress=False)
+    columns = ["run_id", "iou", "iou_part", "iou_whole", "completeness"]
+    pd.testing.assert_frame_equal(local[columns], remote[columns])
+
+
+def test_table_and_plot_commands(data, tmp_path, capsys):
+    results = tmp_path / "results"
+    assert bench(data, results, "identity", "template") == 0
+    capsys.readouterr()
+    assert main(["table", str(results), "--format", "latex"]) == 0
+    assert r"\begin{tabular}" in capsys.readouterr().out
+    assert main(["table", str(results), "--format", "csv", "--compare-paper"]) == 0
+    assert "paper" in capsys.readouterr().out.splitlines()[0]
+    assert main(["plot", str(results), "-o", str(tmp_path / "plots"), "--count", "2"]) == 0
+    for name in ("iou.png", "overlays-intersection-1.png"):
+        assert (tmp_path / "plots" / name).stat().st_size > 1000
+    assert main(["table", str(tmp_path / "empty")]) == 2
+
+
+def test_reference_estimators_sit_in_every_row():
+    frame = pd.DataFrame({
+        "dataset": "d", "model": ["identity", "proposed", "proposed"], "training": [None, "e2e", "e2e"],
+        "loss": [None, "mse", "top-mse"], "matching_score": [None, "mse", "mse"], "seed": 0,
+        "iou": [0.1, 0.5, 0.6]})
+    out = table_runs(frame)
+    identity = out[out["model"] == "identity"]
+    assert sorted(identity["loss"]) == ["mse", "top-mse"] and (identity["training"] == "e2e").all()
+    assert np.allclose(identity["iou"], 0.1) and len(out) == 4

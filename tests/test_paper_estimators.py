@@ -1,0 +1,138 @@
+"""The paper's models as estimators: fit/predict on a smoke store, shared-stage cache,
+working resolution, the scaled end-to-end schedule."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from synthcal.config import load_config
+from synthcal.data import load_splits
+from synthcal.eval.estimators import SemanticEstimator, load_estimator
+from synthcal.eval.paper_models import BaselineEstimator, PaperEstimator, ProposedEstimator
+from synthcal.eval.training import (
+    end_to_end_stage,
+    reduce_class_maps,
+    reduce_scene,
+    resolution_matrix,
+)
+from synthcal.generate.pipeline import generate_dataset
+from synthcal.generate.render import render_semantic
+from synthcal.generate.splits import draw_splits
+from synthcal.models import end_to_end_weights, one_hot_maps, warp_semantic
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def splits(tmp_path_factory):
+    config = load_config(ROOT / "datasets.yaml")
+    store = generate_dataset(config.resolve("intersection-1", "smoke"), tmp_path_factory.mktemp("paper"),
+                             progress=False)
+    draw_splits(store, seeds=[0])
+    return load_splits(store, 0)
+
+
+@pytest.fixture(scope="module")
+def settings():
+    return load_config(ROOT / "datasets.yaml").training("smoke").settings()
+
+
+def fit(splits, settings, **options):
+    estimator = load_estimator(options.pop("name", "proposed"), settings=settings, device="cpu", **options)
+    estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene)
+    return estimator
+
+
+@pytest.mark.parametrize("name", ["proposed", "baseline"])
+@pytest.mark.parametrize("training", ["step-by-step", "end-to-end"])
+@pytest.mark.parametrize("segmentation", ["unet", "ground-truth"])
+def test_fits_and_predicts_finite_homographies(splits, settings, name, training, segmentation):
+    estimator = fit(splits, settings, name=name, training=training, segmentation=segmentation, loss="top-dice",
+                    matching="mse")
+    test = splits["test"]
+    H = estimator.predict_semantic(test.semantics)
+    assert H.shape == (len(test), 3, 3) and H.dtype == np.float64 and np.isfinite(H).all()
+    if segmentation == "unet":
+        H = estimator.predict(test.images)
+        assert H.shape == (len(test), 3, 3) and np.isfinite(H).all()
+    else:
+        with pytest.raises(RuntimeError, match="predict_semantic"):
+            estimator.predict(test.images)
+    assert all(np.isfinite(v).all() and v for v in estimator.history.values())
+
+
+def test_bundled_names_and_labels():
+    assert isinstance(load_estimator("proposed"), ProposedEstimator)
+    baseline = load_estimator("sha2020", loss="mse")
+    assert isinstance(baseline, BaselineEstimator) and baseline.model == "baseline" and baseline.loss == "mse"
+    assert ProposedEstimator.label == "proposed" and BaselineEstimator.label == "sha2020"
+    assert isinstance(load_estimator("baseline"), SemanticEstimator)
+    with pytest.raises(ValueError, match="loss"):
+        PaperEstimator(loss="l1")
+
+
+def test_shared_stages_are_trained_once_and_reused(splits, settings, tmp_path):
+    first = fit(splits, settings, segmentation="unet", cache_dir=tmp_path)
+    assert first.trained_stages == ["unet", "siamese", "stn"]
+    files = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*.pt")}
+    assert {p.parent.name for p in files} == {"match", "unet", "siamese"}
+
+    second = fit(splits, settings, name="baseline", segmentation="unet", loss="mse", cache_dir=tmp_path)
+    assert second.trained_stages == ["stn"]  # same UNet and Siamese, another STN
+    assert {p: p.stat().st_mtime_ns for p in files} == files
+
+    third = fit(splits, settings, segmentation="unet", matching="mse", cache_dir=tmp_path)
+    assert third.trained_stages == ["siamese", "stn"]  # another matching score: a new Siamese only
+    np.testing.assert_array_equal(first.predict_semantic(splits["test"].semantics),
+                                  fit(splits, settings, segmentation="unet", cache_dir=tmp_path)
+                                  .predict_semantic(splits["test"].semantics))
+
+
+def test_same_seed_same_estimates(splits, settings):
+    a = fit(splits, settings, segmentation="ground-truth").predict_semantic(splits["test"].semantics)
+    b = fit(splits, settings, segmentation="ground-truth").predict_semantic(splits["test"].semantics)
+    np.testing.assert_array_equal(a, b)
+
+
+def test_working_resolution_is_the_full_view_reduced(splits):
+    """``A H`` renders, at half size, the area-reduced full-size view."""
+    scene, H = splits["train"].scene.semantic, splits["train"].homographies[:6]
+    full = np.stack([render_semantic(scene, h, (64, 36)) for h in H])
+    half = np.stack([render_semantic(scene, resolution_matrix((64, 36), (32, 18)) @ h, (32, 18)) for h in H])
+    agree = (reduce_class_maps(full, (32, 18)).numpy() == half).mean()
+    assert agree > 0.9
+
+
+def test_reduced_scene_renders_the_same_views_softly(splits):
+    semantic = splits["train"].scene.semantic
+    scene, frame = reduce_scene(semantic, 4)
+    assert scene.shape[0] == 4 and torch.allclose(scene.sum(0), torch.ones(scene.shape[1:]))
+    H = torch.from_numpy(splits["train"].homographies[:4])
+    sharp = warp_semantic(one_hot_maps(torch.from_numpy(semantic)), H, (64, 36))
+    soft = warp_semantic(scene, H @ frame, (64, 36))
+    assert (sharp.argmax(1) == soft.argmax(1)).float().mean() > 0.8
+
+
+def test_end_to_end_schedule_scales_the_warm_up():
+    def phases(epochs, with_unet=True):
+        n = epochs - (0 if with_unet else max(1, round(0.2 * epochs)))
+        return [end_to_end_weights(end_to_end_stage(e, epochs, with_unet)) for e in range(n)]
+    assert phases(100) == [end_to_end_weights(e) for e in range(100)]  # the paper's own schedule
+    assert phases(5) == [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0)] + [(0.05, 0.05, 0.9)] * 3
+    assert phases(3) == [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.05, 0.05, 0.9)]
+    assert phases(10, with_unet=False) == [(0.0, 1.0, 0.0)] * 2 + [(0.05, 0.05, 0.9)] * 6
+
+
+def test_profiles_training_blocks_validate(tmp_path):
+    from synthcal.config import ConfigError
+
+    config = load_config(ROOT / "datasets.yaml")
+    for profile in ("smoke", "demo", "quick", "paper"):
+        assert config.training(profile).end_to_end_epochs >= 3
+    assert config.training("quick").segmentation == "ground-truth" and config.training("paper").segmentation == "unet"
+    text = (ROOT / "datasets.yaml").read_text().replace("      stn_epochs: 1\n", "      stn_epochs: 0\n", 1)
+    (tmp_path / "bad.yaml").write_text(text)
+    with pytest.raises(ConfigError, match=r"profiles\.smoke\.training\.stn_epochs"):
+        load_config(tmp_path / "bad.yaml")

@@ -7,7 +7,7 @@ import zarr
 import pytest
 from zarr.codecs import BloscCodec, ZstdCodec
 
-from synthcal.generate.shardwrite import write_shard
+from synthcal.generate.shardwrite import shard_layout, write_shard
 
 
 def make_array(root: Path, name: str, shape, dtype, shard_size: int, compressor=None) -> zarr.Array:
@@ -37,7 +37,7 @@ def test_same_bytes_as_zarr(tmp_path, compressor):
         theirs = make_array(tmp_path / "zarr", name, values.shape, values.dtype, 4, compressor)
         theirs[:] = values
         for shard, start in enumerate(range(0, len(values), 4)):  # the last shard holds 3 samples
-            write_shard(ours, shard, values[start:start + 4])
+            write_shard(shard_layout(ours), shard, values[start:start + 4])
         np.testing.assert_array_equal(ours[:], values)
     assert files(tmp_path / "ours") == files(tmp_path / "zarr")
     assert not (tmp_path / "ours" / "semantic" / "c" / "1").exists()
@@ -46,7 +46,7 @@ def test_same_bytes_as_zarr(tmp_path, compressor):
 def test_rewrite_replaces_the_file_whole(tmp_path):
     values = np.arange(8 * 4, dtype=np.uint8).reshape(8, 4) + 1
     array = make_array(tmp_path, "a", values.shape, values.dtype, 4)
-    write_shard(array, 1, values[4:])
-    write_shard(array, 1, values[4:] * 2)
+    write_shard(shard_layout(array), 1, values[4:])
+    write_shard(shard_layout(array), 1, values[4:] * 2)
     np.testing.assert_array_equal(array[4:], values[4:] * 2)
     assert [p.name for p in (tmp_path / "a" / "c" / "1").iterdir()] == ["0"]  # no temporary left behind

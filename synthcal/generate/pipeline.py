@@ -33,7 +33,10 @@ from synthcal.generate.camera import homography as camera_homography
 from synthcal.generate.grid import CameraSamples, sample_cameras
 from synthcal.generate.render import Appearance, apply_appearance, mask_invisible, render_image, render_semantic
 from synthcal.generate.scenes import Scene, build_scene, load_user_scene
-from synthcal.generate.store import CAMERA_FIELDS, FORMAT_VERSION, create_store, software_versions, write_samples
+from synthcal.generate.shardwrite import ShardLayout
+from synthcal.generate.store import (
+    CAMERA_FIELDS, FORMAT_VERSION, create_store, image_layouts, software_versions, write_samples,
+)
 
 __all__ = ["load_scene", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset", "store_path"]
 
@@ -132,7 +135,7 @@ class ShardTask:
     """One shard's worth of work, small enough to ship to any worker."""
 
     spec: DatasetSpec
-    store: Path
+    layouts: dict[str, ShardLayout]
     progress: Path
     shard: int
     start: int
@@ -147,7 +150,7 @@ def run_shard(task: ShardTask) -> int:
     cv2.setNumThreads(1)  # one process per core: OpenCV's own threads would oversubscribe
     scene = load_scene(task.spec)
     images, semantics = render_samples(scene, task.homographies, task.start, task.spec)
-    write_samples(task.store, task.shard, images, semantics)
+    write_samples(task.layouts, task.shard, images, semantics)
     task.done_marker().touch()
     return len(images)
 
@@ -266,9 +269,10 @@ def generate_dataset(
     progress_dir = out_dir / f".{final.name}.progress"
     out_dir.mkdir(parents=True, exist_ok=True)
     homographies = _prepare_partial(spec, scene, partial, progress_dir)
+    layouts = image_layouts(partial)
     size = spec.shard_size
     tasks = [
-        ShardTask(spec, partial, progress_dir, shard, start, homographies[start:start + size])
+        ShardTask(spec, layouts, progress_dir, shard, start, homographies[start:start + size])
         for shard, start in enumerate(range(0, spec.pool_size, size))
     ]
     pending = [task for task in tasks if not task.done_marker().exists()]

@@ -17,6 +17,7 @@ or absent.
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import google_crc32c
@@ -25,7 +26,7 @@ import zarr
 from numcodecs import Blosc, Zstd
 from numcodecs.abc import Codec
 
-__all__ = ["shard_file", "encode_shard", "write_shard"]
+__all__ = ["ShardLayout", "shard_layout", "shard_file", "inner_codec", "encode_shard", "write_shard"]
 
 _EMPTY = 2**64 - 1
 
@@ -77,20 +78,40 @@ def encode_shard(samples: np.ndarray, shard_size: int, codec: Codec) -> bytes | 
     return b"".join([*frames, index_bytes, checksum])
 
 
-def write_shard(array: zarr.Array, shard: int, samples: np.ndarray) -> None:
-    """Write samples ``shard · S : shard · S + len(samples)`` of ``array`` as one file.
+@dataclass(frozen=True)
+class ShardLayout:
+    """Where and how one array's shards are written (small and picklable).
 
-    ``array`` must be a local, sharded array with one sample per chunk and a
-    ``blosc`` or ``zstd`` inner codec, as :func:`synthcal.generate.store.create_store`
-    makes.
+    Attributes:
+        directory: the array's folder in a local store.
+        shard_size: samples per shard.
+        ndim: the array's number of dimensions.
+        codec: the inner compressor (:func:`inner_codec`).
     """
+
+    directory: Path
+    shard_size: int
+    ndim: int
+    codec: Codec
+
+
+def shard_layout(array: zarr.Array) -> ShardLayout:
+    """The layout of a local, sharded array with one sample per chunk and a ``blosc``
+    or ``zstd`` inner codec, as :func:`synthcal.generate.store.create_store` makes."""
     meta = array.metadata.to_dict()
-    sharding = meta["codecs"][0]["configuration"]
-    _, compressor = sharding["codecs"]  # ("bytes", the compressor)
-    shard_size = meta["chunk_grid"]["configuration"]["chunk_shape"][0]
-    root = Path(array.store_path.store.root) / array.store_path.path
-    path = shard_file(root, shard, array.ndim)
-    data = encode_shard(samples, shard_size, inner_codec(compressor))
+    _, compressor = meta["codecs"][0]["configuration"]["codecs"]  # ("bytes", the compressor)
+    return ShardLayout(
+        directory=Path(array.store_path.store.root) / array.store_path.path,
+        shard_size=meta["chunk_grid"]["configuration"]["chunk_shape"][0],
+        ndim=array.ndim,
+        codec=inner_codec(compressor),
+    )
+
+
+def write_shard(layout: ShardLayout, shard: int, samples: np.ndarray) -> None:
+    """Write samples ``shard · S : shard · S + len(samples)`` of an array as one file."""
+    path = shard_file(layout.directory, shard, layout.ndim)
+    data = encode_shard(samples, layout.shard_size, layout.codec)
     if data is None:
         path.unlink(missing_ok=True)
         return

@@ -33,7 +33,7 @@ import zarr
 from zarr.codecs import BloscCodec
 
 from synthcal.generate.shardread import read_rows
-from synthcal.generate.shardwrite import write_shard
+from synthcal.generate.shardwrite import ShardLayout, shard_layout, write_shard
 
 __all__ = [
     "FORMAT_VERSION",
@@ -41,6 +41,7 @@ __all__ = [
     "StoreError",
     "software_versions",
     "create_store",
+    "image_layouts",
     "write_samples",
     "open_store",
     "read_samples",
@@ -113,20 +114,25 @@ def create_store(
     per_sample = {"homography": homography, **{f"camera/{name}": camera[name] for name in CAMERA_FIELDS},
                   "camera/grid_index": camera["grid_index"]}
     for name, values in per_sample.items():
-        array = _sample_array(group, name, values.shape, values.dtype.str, shard_size)
+        layout = shard_layout(_sample_array(group, name, values.shape, values.dtype.str, shard_size))
         for shard, start in enumerate(range(0, count, shard_size)):
-            write_shard(array, shard, values[start:start + shard_size])
+            write_shard(layout, shard, values[start:start + shard_size])
     for name, array in (("scene/image", scene_image), ("scene/semantic", scene_semantic)):
         group.create_array(name, shape=array.shape, chunks=array.shape, dtype="uint8",
                            compressors=_COMPRESSOR, fill_value=0)[:] = array
     return group
 
 
-def write_samples(path: Path, shard: int, image: np.ndarray, semantic: np.ndarray) -> None:
+def image_layouts(path: Path) -> dict[str, ShardLayout]:
+    """Shard layouts of the ``image`` and ``semantic`` arrays, for :func:`write_samples`."""
+    group = zarr.open_group(zarr.storage.LocalStore(path), mode="r", zarr_format=3)
+    return {name: shard_layout(group[name]) for name in ("image", "semantic")}
+
+
+def write_samples(layouts: dict[str, ShardLayout], shard: int, image: np.ndarray, semantic: np.ndarray) -> None:
     """Write one shard's rendered samples, each array's shard file atomically."""
-    group = zarr.open_group(zarr.storage.LocalStore(path), mode="r+", zarr_format=3)
-    write_shard(group["image"], shard, image)
-    write_shard(group["semantic"], shard, semantic)
+    write_shard(layouts["image"], shard, image)
+    write_shard(layouts["semantic"], shard, semantic)
 
 
 def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:

@@ -312,6 +312,14 @@ def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tenso
 # --- stages --------------------------------------------------------------------------------
 
 
+def _step(optimiser: torch.optim.Optimizer, loss: Tensor) -> float:
+    """One gradient step on ``loss``; returns its value."""
+    optimiser.zero_grad(set_to_none=True)
+    loss.backward()
+    optimiser.step()
+    return loss.item()
+
+
 def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr: float, device: torch.device,
                seed: int = 0, progress: bool = False, log: list[float] | None = None) -> UNet:
     """Cross-entropy training of ``unet`` on the train images (SPEC §7). Returns it, trained.
@@ -328,10 +336,7 @@ def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr:
         for index in _batches(len(data), batch_size, generator):
             loss = segmentation_loss(unet(_float_images(data.images[index], device)),
                                      data.semantics[index].to(device))
-            optimiser.zero_grad(set_to_none=True)
-            loss.backward()
-            optimiser.step()
-            losses.append(loss.item())
+            losses.append(_step(optimiser, loss))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
     return unet.eval()
@@ -375,10 +380,7 @@ def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | Non
             same[: len(index)] = 1.0
             embedded = siamese(_templates(data, partners, device))
             loss = contrastive_loss(anchor.repeat(len(partners) // len(index), 1), embedded, same, margin)
-            optimiser.zero_grad(set_to_none=True)
-            loss.backward()
-            optimiser.step()
-            losses.append(loss.item())
+            losses.append(_step(optimiser, loss))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
     return siamese.eval()
@@ -404,10 +406,7 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss_n
             with torch.no_grad():
                 target = warp_semantic(scene, data.homographies[index].to(device) @ frame, data.work_size)
             loss = criterion(warp_semantic(scene, H @ frame, data.work_size), target)
-            optimiser.zero_grad(set_to_none=True)
-            loss.backward()
-            optimiser.step()
-            losses.append(loss.item())
+            losses.append(_step(optimiser, loss))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
     return stn.eval()
@@ -481,10 +480,7 @@ def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool,
             inputs = (_float_images(data.images[index], device) if with_unet
                       else one_hot_maps(semantics, NUM_CLASSES))
             loss, terms = model.training_loss(inputs, semantics, data.match[index].to(device), stage)
-            optimiser.zero_grad(set_to_none=True)
-            loss.backward()
-            optimiser.step()
-            losses.append(loss.item())
+            losses.append(_step(optimiser, loss))
             bar.set_postfix(stage=stage, **{k: f"{v:.4f}" for k, v in terms.items()})
         _record(log, losses)
     return model.eval()

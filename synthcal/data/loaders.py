@@ -35,13 +35,12 @@ from torch.utils.data import Dataset
 from synthcal.generate.splits import (
     SPLIT_NAMES,
     SplitError,
-    read_indexed,
     read_mixed_dictionary,
     read_mixed_samples,
     read_split_indices,
     store_spec,
 )
-from synthcal.generate.store import open_store
+from synthcal.generate.store import open_store, read_samples
 
 __all__ = ["StoreScene", "SplitDataset", "load_split", "load_splits", "read_scene"]
 
@@ -182,7 +181,7 @@ def load_split(
         return SplitDataset(arrays, templates.index, store, split, seed, scene,
                             templates.sources, templates.source, templates.stores)
     indices = read_split_indices(store, split, seed)
-    return SplitDataset(read_indexed(open_store(store), indices), indices, store, split, seed, scene)
+    return SplitDataset(read_samples(open_store(store), indices), indices, store, split, seed, scene)
 
 
 def load_splits(store: str | Path, seed: int, mixed: bool | None = None) -> dict[str, SplitDataset]:

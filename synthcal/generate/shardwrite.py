@@ -39,8 +39,10 @@ def shard_file(array_dir: Path, shard: int, ndim: int) -> Path:
 _SHUFFLE = {"noshuffle": Blosc.NOSHUFFLE, "shuffle": Blosc.SHUFFLE, "bitshuffle": Blosc.BITSHUFFLE}
 
 
-def inner_codec(config: dict) -> Codec:
-    """The numcodecs compressor of a Zarr v3 ``zstd`` or ``blosc`` codec entry."""
+def inner_codec(config: dict | None) -> Codec | None:
+    """The numcodecs compressor of a Zarr v3 ``zstd`` or ``blosc`` codec entry (None: none)."""
+    if config is None:
+        return None
     name, options = config["name"], config.get("configuration", {})
     if name == "zstd":
         return Zstd(level=options["level"], checksum=options.get("checksum", False))
@@ -50,14 +52,14 @@ def inner_codec(config: dict) -> Codec:
     raise ValueError(f"no fast shard writer for the {name!r} codec")
 
 
-def encode_shard(samples: np.ndarray, shard_size: int, codec: Codec) -> bytes | None:
+def encode_shard(samples: np.ndarray, shard_size: int, codec: Codec | None) -> bytes | None:
     """The bytes of one shard file.
 
     Args:
         samples: (k, ...) the shard's samples, k ≤ ``shard_size`` (the last shard
             of an array may hold fewer).
         shard_size: inner chunks per shard.
-        codec: the array's inner compressor (:func:`inner_codec`).
+        codec: the array's inner compressor (:func:`inner_codec`; None: raw bytes).
 
     Returns:
         the file's bytes, or None when every sample is all zeros (no file).
@@ -67,7 +69,8 @@ def encode_shard(samples: np.ndarray, shard_size: int, codec: Codec) -> bytes | 
     for k, sample in enumerate(samples):
         if not sample.any():
             continue
-        frame = codec.encode(np.ascontiguousarray(sample))
+        raw = np.ascontiguousarray(sample, dtype=sample.dtype.newbyteorder("<"))  # the bytes codec: little endian
+        frame = raw.tobytes() if codec is None else codec.encode(raw)
         index[k] = (offset, len(frame))
         frames.append(frame)
         offset += len(frame)
@@ -92,19 +95,19 @@ class ShardLayout:
     directory: Path
     shard_size: int
     ndim: int
-    codec: Codec
+    codec: Codec | None
 
 
 def shard_layout(array: zarr.Array) -> ShardLayout:
     """The layout of a local, sharded array with one sample per chunk and a ``blosc``
     or ``zstd`` inner codec, as :func:`synthcal.generate.store.create_store` makes."""
     meta = array.metadata.to_dict()
-    _, compressor = meta["codecs"][0]["configuration"]["codecs"]  # ("bytes", the compressor)
+    _, *compressor = meta["codecs"][0]["configuration"]["codecs"]  # "bytes", then the compressor if any
     return ShardLayout(
         directory=Path(array.store_path.store.root) / array.store_path.path,
         shard_size=meta["chunk_grid"]["configuration"]["chunk_shape"][0],
         ndim=array.ndim,
-        codec=inner_codec(compressor),
+        codec=inner_codec(compressor[0] if compressor else None),
     )
 
 

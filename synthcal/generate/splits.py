@@ -54,8 +54,7 @@ import numpy as np
 import zarr
 
 from synthcal.config import DatasetSpec, SplitSizes
-from synthcal.generate.shardread import read_rows
-from synthcal.generate.store import StoreError, open_store
+from synthcal.generate.store import StoreError, open_store, read_samples
 
 __all__ = [
     "SPLIT_NAMES",
@@ -72,7 +71,6 @@ __all__ = [
     "drawn_seeds",
     "read_split_indices",
     "read_mixed_dictionary",
-    "read_indexed",
     "read_mixed_samples",
     "resolve_mixed_dictionary",
     "source_store_path",
@@ -473,19 +471,6 @@ def read_mixed_dictionary(store: str | Path, seed: int) -> MixedDictionary:
     )
 
 
-def read_indexed(group: zarr.Group, index: np.ndarray) -> dict[str, np.ndarray]:
-    """``image``, ``semantic``, ``homography`` of the samples at ``index``.
-
-    Reads shard by shard in sorted order, decoding straight into the result
-    (:func:`synthcal.generate.shardread.read_rows`; Zarr's own orthogonal
-    selection for any other layout), so the peak memory is the result's size.
-
-    Returns:
-        (K, H, W, 3) uint8, (K, H, W) uint8 and (K, 3, 3) float64, in ``index``'s order.
-    """
-    return {name: read_rows(group[name], index) for name in ("image", "semantic", "homography")}
-
-
 def read_mixed_samples(mixed: MixedDictionary) -> dict[str, np.ndarray]:
     """Resolve templates to arrays from their source stores.
 
@@ -504,7 +489,7 @@ def read_mixed_samples(mixed: MixedDictionary) -> dict[str, np.ndarray]:
         mask = mixed.source == k
         if not mask.any():  # fewer templates than sources
             continue
-        for key, values in read_indexed(group, mixed.index[mask]).items():
+        for key, values in read_samples(group, mixed.index[mask]).items():
             if key not in out:
                 out[key] = np.empty((len(mixed.index), *values.shape[1:]), values.dtype)
             out[key][mask] = values

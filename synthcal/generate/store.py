@@ -69,7 +69,9 @@ def software_versions() -> dict[str, str]:
     return versions
 
 
-def _sample_array(group: zarr.Group, name: str, shape: tuple[int, ...], dtype: str, shard_size: int) -> zarr.Array:
+def _sample_array(
+    group: zarr.Group, name: str, shape: tuple[int, ...], dtype: str, shard_size: int, compressed: bool = True
+) -> zarr.Array:
     """An array with one sample per chunk and ``shard_size`` samples per shard."""
     return group.create_array(
         name,
@@ -77,7 +79,7 @@ def _sample_array(group: zarr.Group, name: str, shape: tuple[int, ...], dtype: s
         chunks=(1, *shape[1:]),
         shards=(shard_size, *shape[1:]),
         dtype=dtype,
-        compressors=_COMPRESSOR,
+        compressors=_COMPRESSOR if compressed else None,
         fill_value=0,
     )
 
@@ -114,7 +116,8 @@ def create_store(
     per_sample = {"homography": homography, **{f"camera/{name}": camera[name] for name in CAMERA_FIELDS},
                   "camera/grid_index": camera["grid_index"]}
     for name, values in per_sample.items():
-        layout = shard_layout(_sample_array(group, name, values.shape, values.dtype.str, shard_size))
+        # 72 bytes or less per sample: compression saves nothing and costs a decode call per sample.
+        layout = shard_layout(_sample_array(group, name, values.shape, values.dtype.str, shard_size, compressed=False))
         for shard, start in enumerate(range(0, count, shard_size)):
             write_shard(layout, shard, values[start:start + shard_size])
     for name, array in (("scene/image", scene_image), ("scene/semantic", scene_semantic)):

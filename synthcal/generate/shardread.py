@@ -11,7 +11,7 @@ into the output, shards spread over a thread pool (the decoders release the GIL)
 
 Only the layout that :mod:`synthcal.generate.store` writes is taken this way —
 local files, regular grid, default ``/`` chunk keys, one sample per inner chunk,
-inner codecs ``bytes`` + ``zstd`` (or ``blosc``), index codecs ``bytes`` + ``crc32c`` at the end.
+inner codecs ``bytes`` + ``blosc``, ``zstd`` or nothing, index codecs ``bytes`` + ``crc32c`` at the end.
 Anything else falls back to Zarr's own orthogonal selection, so results never
 depend on the path taken (the tests compare both).
 """

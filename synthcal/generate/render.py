@@ -156,10 +156,12 @@ def render_semantic(scene_semantic: np.ndarray, homography: np.ndarray, image_si
         reciprocal = np.where(visible, 1.0 / depth, 0.0)
         col = np.rint(((M[0, 1] * ys + M[0, 2]) + M[0, 0] * xs) * reciprocal)
         row = np.rint(((M[1, 1] * ys + M[1, 2]) + M[1, 0] * xs) * reciprocal)
-    scene_height, scene_width = scene_semantic.shape
-    inside = visible & (col >= 0) & (col <= scene_width - 1) & (row >= 0) & (row <= scene_height - 1)
-    flat = np.where(inside, row * scene_width + col, 0).astype(np.intp)
-    view[rows] = np.where(inside, scene_semantic.reshape(-1)[flat], 0)
+        scene_height, scene_width = scene_semantic.shape
+        col_index, row_index = col.astype(np.intp), row.astype(np.intp)  # huge or negative: caught below
+    # As unsigned, a negative index is huge: one comparison per axis checks both ends.
+    inside = visible & (col_index.view(np.uintp) < scene_width) & (row_index.view(np.uintp) < scene_height)
+    flat = np.where(inside, row_index * scene_width + col_index, 0)
+    view[rows] = scene_semantic.reshape(-1).take(flat) * inside
     return view
 
 

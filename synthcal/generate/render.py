@@ -35,6 +35,7 @@ Example
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from statistics import NormalDist
 from typing import NamedTuple
 
@@ -92,6 +93,15 @@ def visible_mask(homography: np.ndarray, image_size: tuple[int, int], supersampl
     return np.add.outer(b * ys + c, a * xs) > 0
 
 
+@lru_cache(maxsize=16)
+def _pixel_centres(count: int, supersample: int) -> np.ndarray:
+    """(count,) centres of the pixels of an axis ``supersample`` times finer, in output
+    pixels: ``(i + 0.5) / s − 0.5`` (read-only; cached, as every sample asks again)."""
+    centres = (np.arange(count) + 0.5) / supersample - 0.5
+    centres.flags.writeable = False
+    return centres
+
+
 class _RowDepths(NamedTuple):
     """Depth of ``H⁻¹ x`` over an (h, w) image ``supersample`` times finer than the
     output: ``depth[r, i] = row[r] + a · xs[i]`` (the sums of :func:`visible_mask`).
@@ -106,10 +116,9 @@ class _RowDepths(NamedTuple):
     @classmethod
     def of(cls, homography: np.ndarray, shape: tuple[int, int], supersample: int) -> _RowDepths:
         h, w = shape
-        s = supersample
         a, b, c = inverse_homography(homography)[2].tolist()
-        xs = (np.arange(w) + 0.5) / s - 0.5
-        row = b * ((np.arange(h) + 0.5) / s - 0.5) + c
+        xs = _pixel_centres(w, supersample)
+        row = b * _pixel_centres(h, supersample) + c
         first, last = row + a * xs[0], row + a * xs[-1]
         return cls(row, xs, a, np.maximum(first, last), np.minimum(first, last))
 

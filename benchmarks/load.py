@@ -1,6 +1,6 @@
 """Loading a split: ``synthcal.data.load_split`` against ``numpy.load``.
 
-Generates (once, in a scratch folder) a soccer pool of 4,600 samples at 256 × 144,
+Generates (in a temporary folder, or once in ``--scratch``) a soccer pool of 4,600 samples at 256 × 144,
 draws a 4,500 / 50 / 50 split, and times in the same run:
 
 * ``load_split(store, "train", 0)``: the 4,500 images, semantic maps and
@@ -11,12 +11,13 @@ both from the page cache (each is read once before timing), best of ``--repeat``
 (with ``--zarr`` also zarr-python's own orthogonal selection, once).
 Target: ratio ≤ 3. Also reported: items/s through a ``DataLoader(num_workers=2)``.
 
-Run: .venv/bin/python benchmarks/load.py [--scratch /tmp/synthcal-load] [--repeat 3]
+Run: .venv/bin/python benchmarks/load.py [--repeat 3] [--scratch DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from pathlib import Path
 
@@ -62,13 +63,23 @@ def prepare(scratch: Path, workers: int) -> Path:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scratch", type=Path, default=Path("/tmp/synthcal-load"))
+    parser.add_argument("--scratch", type=Path, default=None,
+                        help="keep the store here and reuse it on later runs (default: a fresh temporary "
+                             "folder, removed at the end; a kept store is NOT remade when the generator changes)")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--zarr", action="store_true", help="also time zarr-python's own reader (~20 s)")
     args = parser.parse_args()
-    store = prepare(args.scratch, args.workers)
-    npy = args.scratch / "npy"
+    if args.scratch is None:
+        with tempfile.TemporaryDirectory(prefix="synthcal-load-") as scratch:
+            run(Path(scratch), args)
+    else:
+        run(args.scratch, args)
+
+
+def run(scratch: Path, args: argparse.Namespace) -> None:
+    store = prepare(scratch, args.workers)
+    npy = scratch / "npy"
 
     def numpy_load() -> None:
         for name in ("image", "semantic", "homography"):

@@ -89,3 +89,12 @@ def test_warp_loss_reaches_unet_through_stn(data):
     model.warp_loss(out.warped, target).backward()
     assert _grad_norm(model.unet) > 0
     assert all(p.grad is None or p.grad.abs().sum() == 0 for p in model.siamese.parameters())
+
+
+def test_scene_as_class_ids_or_as_float_maps(data):
+    ids = _model(data)
+    soft = torch.nn.functional.one_hot(data["scene"].long(), 4).movedim(-1, 0).float() * 0.5
+    maps = CompositeModel(ids.unet, ids.siamese, ids.stn, soft, data["dictionary"], data["homography"])
+    torch.testing.assert_close(maps.scene, ids.scene * 0.5)  # float maps are taken as they are
+    with pytest.raises(ValueError, match=r"scene: expected .* got shape \(3, "):
+        CompositeModel(ids.unet, ids.siamese, ids.stn, soft[:3], data["dictionary"], data["homography"])

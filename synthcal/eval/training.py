@@ -447,14 +447,11 @@ def composite_model(unet: nn.Module, siamese: SiameseNet, stn: nn.Module, data: 
     """:class:`CompositeModel` over the anti-aliased scene of the loss.
 
     Its templates' homographies are given in the reduced scene's frame
-    (``A H_k D⁻¹``), so every homography it composes is too, and its scene buffer
-    is replaced by the soft reduced map (a registered buffer: it follows ``.to``).
-    Used for training only; estimates come from :func:`estimate`.
+    (``A H_k D⁻¹``), so every homography it composes is too, and its scene is the
+    soft reduced map. Used for training only; estimates come from :func:`estimate`.
     """
-    model = CompositeModel(unet, siamese, stn, data.scene.argmax(0), data.templates,
-                           data.template_homographies @ data.scene_frame, NUM_CLASSES, loss_name.replace("-", "_"))
-    model.scene = data.scene.clone()
-    return model
+    return CompositeModel(unet, siamese, stn, data.scene.clone(), data.templates,
+                          data.template_homographies @ data.scene_frame, NUM_CLASSES, loss_name.replace("-", "_"))
 
 
 def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool, epochs: int, batch_size: int,

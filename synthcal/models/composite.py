@@ -91,7 +91,8 @@ class CompositeModel(nn.Module):
         unet: RGB → class logits.
         siamese: map → embedding.
         stn: (map ⊕ template) → 8 values of ``H̄``.
-        scene_semantic: (Hs, Ws) integer class ids of the bird's-eye scene.
+        scene: the bird's-eye scene as (Hs, Ws) integer class ids, or as (C, Hs, Ws)
+            float class maps (e.g. the soft, anti-aliased one-hot map a loss samples).
         dictionary_semantic: (T, H, W) integer class ids of the templates.
         dictionary_homography: (T, 3, 3) the templates' homographies.
         num_classes: number of classes C.
@@ -99,14 +100,19 @@ class CompositeModel(nn.Module):
         margin: contrastive margin.
     """
 
-    def __init__(self, unet: UNet, siamese: SiameseNet, stn: nn.Module, scene_semantic: Tensor,
+    def __init__(self, unet: UNet, siamese: SiameseNet, stn: nn.Module, scene: Tensor,
                  dictionary_semantic: Tensor, dictionary_homography: Tensor, num_classes: int = 4,
                  warp_loss_name: str = "top_mse", margin: float = 1.0):
         super().__init__()
         self.unet, self.siamese, self.stn = unet, siamese, stn
         self.num_classes, self.margin = num_classes, margin
         self.warp_loss = warp_loss(warp_loss_name)
-        self.register_buffer("scene", one_hot_maps(scene_semantic, num_classes), persistent=False)
+        if not scene.is_floating_point():
+            scene = one_hot_maps(scene, num_classes)
+        if scene.ndim != 3 or scene.shape[0] != num_classes:
+            raise ValueError(f"scene: expected (Hs, Ws) class ids or ({num_classes}, Hs, Ws) class maps, "
+                             f"got shape {tuple(scene.shape)}")
+        self.register_buffer("scene", scene, persistent=False)
         self.register_buffer("dictionary_semantic", dictionary_semantic.to(torch.uint8), persistent=False)
         self.register_buffer("dictionary_homography", dictionary_homography.double(), persistent=False)
         self.register_buffer("dictionary_embedding", torch.empty(0), persistent=False)

@@ -12,6 +12,7 @@ from synthcal.data import load_splits
 from synthcal.eval.estimators import SemanticEstimator, load_estimator
 from synthcal.eval.paper_models import BaselineEstimator, PaperEstimator, ProposedEstimator
 from synthcal.eval.training import (
+    StageCache,
     end_to_end_stage,
     reduce_class_maps,
     reduce_scene,
@@ -136,3 +137,29 @@ def test_profiles_training_blocks_validate(tmp_path):
     (tmp_path / "bad.yaml").write_text(text)
     with pytest.raises(ConfigError, match=r"profiles\.smoke\.training\.stn_epochs"):
         load_config(tmp_path / "bad.yaml")
+
+
+def test_stage_cache_trains_a_stage_once_when_two_callers_need_it_at_once(tmp_path):
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    cache = StageCache(tmp_path)
+    builds: list[int] = []
+    both_asked = threading.Barrier(2)
+
+    def build() -> dict[str, torch.Tensor]:
+        builds.append(threading.get_ident())
+        time.sleep(0.3)  # long enough for the other caller to arrive while this one trains
+        return {"weight": torch.arange(3.0)}
+
+    def ask(_: int) -> tuple[dict, bool]:
+        both_asked.wait()
+        return cache.cached("unet", "key", build)
+
+    with ThreadPoolExecutor(2) as pool:
+        results = list(pool.map(ask, range(2)))
+    assert len(builds) == 1
+    assert sorted(trained for _, trained in results) == [False, True]
+    for state, _ in results:
+        torch.testing.assert_close(state["weight"], torch.arange(3.0))

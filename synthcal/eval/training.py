@@ -46,8 +46,11 @@ Caching
 :class:`StageCache` keeps ``state_dict``\\ s under ``<root>/<stage>/<key>.pt``, the
 key a hash of everything that determines the stage (the data's bytes, sizes,
 epochs, seed), written atomically (temporary name, then ``os.replace``), so a
-reader sees a whole file or none. Two processes training the same stage at once
-both train it; the last rename wins (both files are valid).
+reader sees a whole file or none. A process about to train a stage holds an
+exclusive ``flock`` on ``<root>/<stage>/.<key>.lock``; another process (or thread)
+that needs the same stage waits for it and then loads its file instead of training
+again. Where ``flock`` is unavailable (Windows) or not honoured (some network file
+systems), both train and the last rename wins; both files are valid.
 """
 
 from __future__ import annotations
@@ -56,9 +59,10 @@ import hashlib
 import json
 import os
 import tempfile
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable, ContextManager, Iterator
 
 import numpy as np
 import torch
@@ -199,13 +203,46 @@ class StageCache:
                 os.unlink(tmp)
 
     def cached(self, stage: str, key: str, build: Callable[[], Any]) -> tuple[Any, bool]:
-        """``(obj, trained)``: the stored object, or ``build()`` stored then returned."""
+        """``(obj, trained)``: the stored object, or ``build()`` stored then returned.
+
+        While one caller builds, others asking for the same stage and key wait, then
+        load what it stored.
+        """
         obj = self.load(stage, key)
         if obj is not None:
             return obj, False
-        obj = build()
-        self.save(stage, key, obj)
+        with self._building(stage, key):
+            obj = self.load(stage, key)  # built by whoever held the lock before us
+            if obj is not None:
+                return obj, False
+            obj = build()
+            self.save(stage, key, obj)
         return obj, True
+
+    def _building(self, stage: str, key: str) -> ContextManager[None]:
+        path = self.path(stage, key)
+        if path is None or _flock is None:
+            return nullcontext()
+        return _exclusive_lock(path.with_name(f".{key}.lock"))
+
+
+try:
+    from fcntl import LOCK_EX, LOCK_UN, flock as _flock
+except ImportError:  # Windows: no advisory locks; concurrent builders both build
+    _flock = None
+
+
+@contextmanager
+def _exclusive_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive advisory lock on ``path`` (created if missing; left in place)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        _flock(fd, LOCK_EX)
+        yield
+    finally:
+        _flock(fd, LOCK_UN)
+        os.close(fd)
 
 
 # --- data ----------------------------------------------------------------------------------

@@ -5,7 +5,7 @@ import numpy as np
 
 from synthcal.generate.camera import homography
 from synthcal.generate.render import (
-    Appearance, apply_appearance, ground_rows, mask_invisible, render_image, render_semantic, visible_mask,
+    Appearance, apply_appearance, apply_appearance_on_ground, ground_rows, mask_invisible, render_image, render_semantic, visible_mask,
 )
 
 SIZE = (64, 36)
@@ -159,3 +159,15 @@ def test_appearance_noise_is_gaussian_and_centred():
         assert abs((np.abs(noise) <= sigma).mean() - 0.683) < 0.03
         checked += 1
     assert checked >= 3
+
+
+def test_appearance_on_ground_leaves_the_sky_black():
+    scene = np.full((1900, 1300, 3), 100, np.uint8)
+    H = homography([20.0], [-3.0], [60.0], [[650.0, 950.0, 80.0]], SIZE)[0]
+    image = render_image(scene, H, SIZE, supersample=1)
+    changed = apply_appearance_on_ground(image.copy(), H, Appearance(brightness=40.0, blur_sigma=2.0, noise_sigma=5.0),
+                                         np.random.default_rng(1))
+    sky = ~visible_mask(H, SIZE)
+    assert sky.any() and (~sky).any()
+    assert np.all(changed[sky] == 0)
+    assert np.abs(changed[~sky].astype(int) - 100).mean() > 1  # the ground did change

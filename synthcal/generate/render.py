@@ -51,6 +51,7 @@ __all__ = [
     "render_image",
     "Appearance",
     "apply_appearance",
+    "apply_appearance_on_ground",
 ]
 
 
@@ -114,9 +115,10 @@ class _RowDepths(NamedTuple):
     lowest: np.ndarray  # (h,) each row's smallest depth
 
     @classmethod
-    def of(cls, homography: np.ndarray, shape: tuple[int, int], supersample: int) -> _RowDepths:
+    def of(cls, inverse: np.ndarray, shape: tuple[int, int], supersample: int) -> _RowDepths:
+        """From ``inverse`` = :func:`inverse_homography` of the output-resolution homography."""
         h, w = shape
-        a, b, c = inverse_homography(homography)[2].tolist()
+        a, b, c = inverse[2].tolist()
         xs = _pixel_centres(w, supersample)
         row = b * _pixel_centres(h, supersample) + c
         first, last = row + a * xs[0], row + a * xs[-1]
@@ -145,7 +147,7 @@ def ground_rows(homography: np.ndarray, shape: tuple[int, int], supersample: int
         shape: ``(h, w)`` of the image, ``supersample`` × the output size.
         supersample: the factor between ``shape`` and the output size.
     """
-    return _RowDepths.of(homography, shape, supersample).ground_rows()
+    return _RowDepths.of(inverse_homography(homography), shape, supersample).ground_rows()
 
 
 def mask_invisible(image: np.ndarray, homography: np.ndarray, supersample: int = 1) -> np.ndarray:
@@ -164,7 +166,7 @@ def mask_invisible(image: np.ndarray, homography: np.ndarray, supersample: int =
     Returns:
         ``image``.
     """
-    return _RowDepths.of(homography, image.shape[:2], supersample).mask(image)
+    return _RowDepths.of(inverse_homography(homography), image.shape[:2], supersample).mask(image)
 
 
 def _supersampled(homography: np.ndarray, supersample: int) -> np.ndarray:
@@ -187,10 +189,10 @@ def render_semantic(scene_semantic: np.ndarray, homography: np.ndarray, image_si
     """
     width, height = image_size
     view = np.zeros((height, width), np.uint8)
-    rows = ground_rows(homography, (height, width))
+    M = inverse_homography(homography)
+    rows = _RowDepths.of(M, (height, width), 1).ground_rows()
     if rows.start == rows.stop:
         return view
-    M = inverse_homography(homography)
     xs = np.arange(width, dtype=np.float64)
     ys = np.arange(rows.start, rows.stop, dtype=np.float64)[:, None]
     depth = (M[2, 1] * ys + M[2, 2]) + M[2, 0] * xs
@@ -230,7 +232,7 @@ def render_image(
     width, height = image_size
     s = int(supersample)
     fine = np.empty((height * s, width * s, 3), np.uint8)
-    depths = _RowDepths.of(homography, fine.shape[:2], s)
+    depths = _RowDepths.of(inverse_homography(homography), fine.shape[:2], s)
     rows = depths.ground_rows()
     fine[: rows.start] = 0
     fine[rows.stop :] = 0
@@ -303,3 +305,28 @@ def apply_appearance(image: np.ndarray, appearance: Appearance, rng: np.random.G
     noise_gain = noise_level * appearance.noise_sigma / _NOISE_STEPS
     noise = cv2.LUT(levels, _NOISE_TABLE)  # 128 + 32 · N(0, 1)
     return cv2.addWeighted(image, factor, noise, noise_gain, shift - 128 * noise_gain)
+
+
+def apply_appearance_on_ground(
+    image: np.ndarray, homography: np.ndarray, appearance: Appearance, rng: np.random.Generator
+) -> np.ndarray:
+    """:func:`apply_appearance` on the rows that see ground, in place; the sky stays black.
+
+    Restricting it to those rows saves the time spent on the sky and keeps the
+    contrast pivoting on the ground's mean rather than on black pixels.
+
+    Args:
+        image: (H, W, 3) uint8 RGB at the output resolution of ``homography``.
+        homography: (3, 3) bird's-eye → image homography.
+        appearance: ranges of the changes.
+        rng: the sample's own generator.
+
+    Returns:
+        ``image``.
+    """
+    depths = _RowDepths.of(inverse_homography(homography), image.shape[:2], 1)
+    rows = depths.ground_rows()
+    if rows.start < rows.stop:
+        image[rows] = apply_appearance(image[rows], appearance, rng)
+        depths.mask(image)  # blur and brightness reach past the horizon within a row
+    return image

@@ -26,7 +26,6 @@ Run: .venv/bin/python benchmarks/generate.py [--n 2000] [--repeat 3] [--dataset 
 from __future__ import annotations
 
 import argparse
-import resource
 import shutil
 import subprocess
 import sys
@@ -40,7 +39,7 @@ import numpy as np
 from synthcal.config import load_config
 from synthcal.generate.pipeline import generate_dataset, load_scene
 from synthcal.generate.render import _supersampled
-from synthcal.generate.store import open_store
+from synthcal.store import open_store
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -26,8 +26,9 @@ import numpy as np
 from synthcal.config import SplitSizes, load_config
 from synthcal.data import load_split
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.splits import draw_splits, read_split_indices
-from synthcal.generate.store import open_store, read_samples
+from synthcal.generate.splits import draw_splits
+from synthcal.store.splits import read_split_indices
+from synthcal.store import open_store, read_samples
 
 ROOT = Path(__file__).resolve().parents[1]
 SPLIT = 4500

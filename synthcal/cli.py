@@ -11,7 +11,7 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
@@ -83,8 +83,9 @@ def _print_draw(result: "DrawResult") -> None:
 
 
 def _cmd_split(args: argparse.Namespace) -> None:
-    from synthcal.generate.splits import draw_splits, parse_seeds, split_sizes, store_spec
-    from synthcal.generate.store import open_store
+    from synthcal.generate.splits import draw_splits, parse_seeds, split_sizes
+    from synthcal.store.splits import store_spec
+    from synthcal.store import open_store
 
     spec = store_spec(open_store(args.store), args.store)
     overrides = {name: getattr(args, name) for name in ("train", "test", "dictionary")}
@@ -138,7 +139,7 @@ def _cmd_worldcup_stats(args: argparse.Namespace) -> None:
 
 
 def _cmd_info(args: argparse.Namespace) -> None:
-    from synthcal.generate.store import open_store
+    from synthcal.store import open_store
 
     group = open_store(args.store, allow_incomplete=True)
     attrs = dict(group.attrs)
@@ -165,7 +166,7 @@ def _cmd_info(args: argparse.Namespace) -> None:
 
 
 def _print_splits(group: "zarr.Group") -> None:
-    from synthcal.generate.splits import drawn_seeds
+    from synthcal.store.splits import drawn_seeds
 
     for seed in drawn_seeds(group):
         sub = group[f"splits/seed-{seed}"]
@@ -178,7 +179,7 @@ def _print_splits(group: "zarr.Group") -> None:
 
 
 def _cmd_show(args: argparse.Namespace) -> None:
-    from synthcal.generate.store import open_store, read_samples
+    from synthcal.store import open_store, read_samples
     from synthcal.viz import sample_strip, tile, write_png
 
     group = open_store(args.store)
@@ -193,7 +194,7 @@ def _cmd_show(args: argparse.Namespace) -> None:
 def _cmd_demo(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import generate_dataset
-    from synthcal.generate.store import open_store, read_samples
+    from synthcal.store import open_store, read_samples
     from synthcal.viz import sample_strip, tile, write_png
 
     config = load_config(args.config)
@@ -432,9 +433,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``synthcal`` console script."""
     from synthcal.config import ConfigError
-    from synthcal.eval.estimators import EstimatorError
+    from synthcal.estimators import EstimatorError
     from synthcal.generate.scenes import SceneError
-    from synthcal.generate.store import StoreError
+    from synthcal.store import StoreError
 
     args = build_parser().parse_args(argv)
     try:

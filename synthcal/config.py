@@ -196,9 +196,9 @@ class TrainingSettings(_Strict):
     split, which is itself a random draw). Epoch counts are per stage of
     step-by-step training; ``end_to_end_epochs`` is the whole end-to-end
     schedule, whose warm-up thresholds (SPEC §7: 20 and 40 of the paper's 100)
-    scale with it (:func:`synthcal.eval.training.end_to_end_stage`).
+    scale with it (:func:`synthcal.training.end_to_end_stage`).
     ``scene_downsample`` reduces the bird's-eye map that ``L_warp`` samples, which
-    anti-aliases it (:mod:`synthcal.eval.training`).
+    anti-aliases it (:mod:`synthcal.training`).
     """
 
     work_size: tuple[int, int] | None = None

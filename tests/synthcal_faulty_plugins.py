@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from synthcal.eval.estimators import IdentityEstimator
+from synthcal.estimators import IdentityEstimator
 
 
 class RaisingEstimator:

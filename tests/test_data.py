@@ -11,8 +11,9 @@ from torch.utils.data import DataLoader
 from synthcal.config import load_config
 from synthcal.data import SplitDataset, load_split, load_splits, read_scene
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.splits import SplitError, draw_splits, read_split_indices
-from synthcal.generate.store import open_store, read_samples
+from synthcal.generate.splits import draw_splits
+from synthcal.store.splits import SplitError, read_split_indices
+from synthcal.store import open_store, read_samples
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -102,14 +103,14 @@ def test_bad_requests(stores):
 
 
 def test_read_scene_missing_store(tmp_path):
-    from synthcal.generate.store import StoreError
+    from synthcal.store import StoreError
 
     with pytest.raises(StoreError, match="no synthcal store here"):
         read_scene(tmp_path / "nothing.zarr")
 
 
 def test_shard_reader_agrees_with_zarr(stores):
-    from synthcal.generate.shardread import fast_path, read_rows
+    from synthcal.store.shards import fast_path, read_rows
 
     group = open_store(stores["intersection-2"])
     index = np.random.default_rng(0).integers(0, 48, 40)  # unsorted, with repeats
@@ -125,7 +126,7 @@ def test_shard_reader_fill_values_and_other_layouts(tmp_path):
     import zarr
     from zarr.codecs import BloscCodec, ZstdCodec
 
-    from synthcal.generate.shardread import fast_path, read_rows
+    from synthcal.store.shards import fast_path, read_rows
 
     group = zarr.create_group(zarr.storage.LocalStore(tmp_path / "x.zarr"), zarr_format=3)
     sharded = group.create_array("a", shape=(20, 4, 2), chunks=(1, 4, 2), shards=(8, 4, 2), dtype="float64",

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import zarr
 
-from synthcal.eval.estimators import (
+from synthcal.estimators import (
     ENTRY_POINT_GROUP,
     ColourSegmenter,
     ECCEstimator,
@@ -74,7 +74,7 @@ def test_bundled_names_and_dotted_paths_load():
     assert isinstance(load_estimator("template"), TemplateEstimator)
     ecc = load_estimator("ecc", iterations=7)
     assert isinstance(ecc, ECCEstimator) and ecc.iterations == 7
-    template = load_estimator("synthcal.eval.estimators:TemplateEstimator", stride=4)
+    template = load_estimator("synthcal.estimators.classic:TemplateEstimator", stride=4)
     assert type(template) is TemplateEstimator and template.stride == 4
     assert isinstance(template, Estimator)
     assert {"identity", "template", "ecc"} <= set(known_estimators())
@@ -83,7 +83,7 @@ def test_bundled_names_and_dotted_paths_load():
 @pytest.mark.parametrize("value, fragment", [
     ("no-such-estimator", "unknown estimator 'no-such-estimator'"),
     ("nosuchpackage.module:Thing", "cannot import module 'nosuchpackage.module'"),
-    ("synthcal.eval.estimators:NoSuchClass", "has no attribute 'NoSuchClass'"),
+    ("synthcal.estimators.classic:NoSuchClass", "has no attribute 'NoSuchClass'"),
     ("collections:OrderedDict", "has no fit(train, dictionary, scene)"),
     (":Thing", "expected 'package.module:Class'"),
 ])

@@ -9,7 +9,7 @@ import zarr
 from synthcal.config import load_config
 from synthcal.generate.camera import homography
 from synthcal.generate.pipeline import generate_dataset, load_scene
-from synthcal.generate.store import CAMERA_FIELDS, StoreError, open_store
+from synthcal.store import CAMERA_FIELDS, StoreError, open_store
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -12,7 +12,8 @@ from synthcal.config import load_config
 from synthcal.eval.harness import collect_results, execute_run, expand_runs, run_sweep, table_runs
 from synthcal.eval.tables import format_table
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.splits import SplitError, draw_splits
+from synthcal.generate.splits import draw_splits
+from synthcal.store.splits import SplitError
 
 ROOT = Path(__file__).resolve().parents[1]
 ORACLE = "synthcal_oracle_plugin:OracleEstimator"

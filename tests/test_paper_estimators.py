@@ -9,9 +9,9 @@ import torch
 
 from synthcal.config import load_config
 from synthcal.data import load_splits
-from synthcal.eval.estimators import SemanticEstimator, load_estimator
-from synthcal.eval.paper_models import BaselineEstimator, PaperEstimator, ProposedEstimator
-from synthcal.eval.training import (
+from synthcal.estimators import SemanticEstimator, load_estimator
+from synthcal.estimators.paper import BaselineEstimator, PaperEstimator, ProposedEstimator
+from synthcal.training import (
     StageCache,
     end_to_end_stage,
     reduce_class_maps,

@@ -7,8 +7,8 @@ import zarr
 import pytest
 from zarr.codecs import BloscCodec, ZstdCodec
 
-from synthcal.generate.shardread import read_rows
-from synthcal.generate.shardwrite import shard_layout, write_shard
+from synthcal.store.shards import read_rows
+from synthcal.store.shards import shard_layout, write_shard
 
 
 def make_array(root: Path, name: str, shape, dtype, shard_size: int, compressor=None) -> zarr.Array:

@@ -9,19 +9,9 @@ import pytest
 from synthcal.cli import main
 from synthcal.config import SplitSizes, load_config
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.splits import (
-    SPLIT_NAMES,
-    SplitError,
-    draw_indices,
-    draw_mixed,
-    draw_splits,
-    drawn_seeds,
-    parse_seeds,
-    read_mixed_dictionary,
-    read_split_indices,
-    resolve_mixed_dictionary,
-)
-from synthcal.generate.store import open_store, read_samples
+from synthcal.generate.splits import draw_indices, draw_mixed, draw_splits, parse_seeds
+from synthcal.store.splits import SPLIT_NAMES, SplitError, drawn_seeds, read_mixed_dictionary, read_split_indices, resolve_mixed_dictionary
+from synthcal.store import open_store, read_samples
 
 ROOT = Path(__file__).resolve().parents[1]
 INTERSECTIONS = [f"intersection-{k}" for k in range(1, 6)]

@@ -13,8 +13,9 @@ from synthcal.data import load_split
 from synthcal.generate.camera import homography
 from synthcal.generate.pipeline import generate_dataset, load_scene
 from synthcal.generate.scenes import soccer
-from synthcal.generate.splits import SplitError, draw_splits, read_split_indices
-from synthcal.generate.store import CAMERA_FIELDS, open_store, read_samples
+from synthcal.generate.splits import draw_splits
+from synthcal.store.splits import SplitError, read_split_indices
+from synthcal.store import CAMERA_FIELDS, open_store, read_samples
 from synthcal.generate.worldcup import (
     METRES_PER_YARD,
     bird_eye_to_pitch,

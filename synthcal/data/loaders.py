@@ -6,7 +6,7 @@
 (torch.Size([3, 144, 256]), torch.float32, torch.int64, torch.Size([3, 3]))
 
 A split is read once, shard by shard in sorted index order, decoded straight into
-its arrays (:mod:`synthcal.generate.shardread`: about 30× faster than zarr-python's
+its arrays (:mod:`synthcal.store.shards`: about 30× faster than zarr-python's
 orthogonal selection, which costs ~1 ms per chunk), and held in memory as NumPy
 arrays, so items cost no I/O and the object pickles for ``DataLoader(num_workers=…)``.
 
@@ -32,15 +32,8 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from synthcal.generate.splits import (
-    SPLIT_NAMES,
-    SplitError,
-    read_mixed_dictionary,
-    read_mixed_samples,
-    read_split_indices,
-    store_spec,
-)
-from synthcal.generate.store import open_store, read_samples
+from synthcal.store.splits import SPLIT_NAMES, SplitError, read_mixed_dictionary, read_mixed_samples, read_split_indices, store_spec
+from synthcal.store import open_store, read_samples
 
 __all__ = ["StoreScene", "SplitDataset", "load_split", "load_splits", "read_scene"]
 

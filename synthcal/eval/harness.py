@@ -76,10 +76,10 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from synthcal.data import load_split, read_scene
-from synthcal.eval.estimators import load_estimator, resolve_estimator
+from synthcal.estimators import load_estimator, resolve_estimator
 from synthcal.eval.metrics import METRICS, evaluate, summarize
-from synthcal.generate.splits import SplitError, drawn_seeds
-from synthcal.generate.store import open_store
+from synthcal.store.splits import SplitError, drawn_seeds
+from synthcal.store import open_store
 
 __all__ = [
     "AXES",

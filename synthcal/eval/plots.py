@@ -26,7 +26,7 @@ import pandas as pd  # noqa: E402
 from synthcal.data import read_scene  # noqa: E402
 from synthcal.eval.metrics import check_homography  # noqa: E402
 from synthcal.generate.render import render_semantic  # noqa: E402
-from synthcal.generate.store import open_store, read_samples  # noqa: E402
+from synthcal.store import open_store, read_samples  # noqa: E402
 from synthcal.viz import overlay  # noqa: E402
 
 __all__ = ["configuration_labels", "plot_iou", "plot_overlays"]

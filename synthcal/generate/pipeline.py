@@ -21,7 +21,7 @@ import shutil
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Iterator
+from typing import Callable, Iterator
 
 import cv2
 import numpy as np
@@ -33,8 +33,8 @@ from synthcal.generate.camera import homography as camera_homography
 from synthcal.generate.grid import CameraSamples, sample_cameras
 from synthcal.generate.render import Appearance, apply_appearance_on_ground, render_image, render_semantic
 from synthcal.generate.scenes import Scene, build_scene, load_user_scene
-from synthcal.generate.shardwrite import ShardLayout
-from synthcal.generate.store import (
+from synthcal.store.shards import ShardLayout
+from synthcal.store import (
     CAMERA_FIELDS, FORMAT_VERSION, create_store, image_layouts, software_versions, write_samples,
 )
 

@@ -53,36 +53,21 @@ from typing import Sequence
 import numpy as np
 import zarr
 
-from synthcal.config import DatasetSpec, SplitSizes
-from synthcal.generate.store import StoreError, open_store, read_samples
+from synthcal.config import SplitSizes
+from synthcal.store.format import open_store
+from synthcal.store.splits import (LAYOUT_VERSION, SPLIT_NAMES, SplitError, open_source, source_store_path,
+                                   store_spec)
 
 __all__ = [
-    "SPLIT_NAMES",
-    "LAYOUT_VERSION",
-    "SplitError",
     "DrawResult",
-    "MixedDictionary",
     "parse_seeds",
     "split_sizes",
-    "store_spec",
     "draw_indices",
     "draw_mixed",
     "draw_splits",
-    "drawn_seeds",
-    "read_split_indices",
-    "read_mixed_dictionary",
-    "read_mixed_samples",
-    "resolve_mixed_dictionary",
-    "source_store_path",
 ]
 
-SPLIT_NAMES = ("train", "test", "dictionary")
-LAYOUT_VERSION = "synthcal-splits/1"
 _HOMOGRAPHY_FRAME = "source: each template's homography maps its source scene's bird's-eye frame to the image"
-
-
-class SplitError(StoreError):
-    """A split that cannot be drawn or read; the message names store, key and value."""
 
 
 def parse_seeds(text: str) -> tuple[int, ...]:
@@ -114,14 +99,6 @@ def split_sizes(base: SplitSizes, **overrides: int) -> SplitSizes:
         if name not in SPLIT_NAMES or value < 1:
             raise SplitError(f"--{name}: a split size must be an integer ≥ 1 (value {value!r})")
     return SplitSizes(**{**base.model_dump(), **overrides})
-
-
-def store_spec(group: zarr.Group, path: Path) -> DatasetSpec:
-    """The resolved configuration recorded in a store's attributes."""
-    try:
-        return DatasetSpec.model_validate(group.attrs["config"])
-    except (KeyError, ValueError) as exc:
-        raise SplitError(f"{path}: attribute 'config' missing or unreadable ({exc})") from None
 
 
 def draw_indices(
@@ -199,33 +176,6 @@ def draw_mixed(
     return np.concatenate(sources), np.concatenate(indices)
 
 
-def source_store_path(store: Path, source: str) -> Path:
-    """Where a mixed-dictionary source is found: beside the target's store."""
-    return Path(store).parent / f"{source}.zarr"
-
-
-def _open_source(store: Path, target_attrs: dict, source: str, config_hash: str | None = None) -> zarr.Group:
-    """Open a source store and check that its samples can stand in the target's dictionary."""
-    path = source_store_path(store, source)
-    try:
-        group = open_store(path)
-    except StoreError as exc:
-        raise SplitError(f"{store}: mixed-dictionary source {source!r}: {exc}") from None
-    attrs = group.attrs
-    for key in ("image_size",):
-        if attrs[key] != target_attrs[key]:
-            raise SplitError(f"{store}: mixed-dictionary source {path}: {key} {attrs[key]} differs from the "
-                             f"target's {target_attrs[key]}")
-    if attrs["scene"]["classes"] != target_attrs["scene"]["classes"]:
-        raise SplitError(f"{store}: mixed-dictionary source {path}: scene classes {attrs['scene']['classes']} "
-                         f"differ from the target's {target_attrs['scene']['classes']}")
-    if config_hash is not None and attrs["config_hash"] != config_hash:
-        raise SplitError(f"{store}: mixed-dictionary source {path} was regenerated since the split was drawn "
-                         f"(config_hash {attrs['config_hash'][:12]}…, recorded {config_hash[:12]}…); "
-                         f"redraw with `synthcal split {store}`")
-    return group
-
-
 @dataclass(frozen=True)
 class DrawResult:
     """What :func:`draw_splits` did.
@@ -283,7 +233,7 @@ def _mixed_plan(
     store: Path, attrs: dict, sources: Sequence[str], count: int, pool_seed: int, seeds: Sequence[int]
 ) -> tuple[dict[str, str], dict[int, tuple[np.ndarray, np.ndarray]]]:
     """Source hashes and each seed's (source, index) arrays."""
-    groups = [_open_source(store, attrs, name) for name in sources]
+    groups = [open_source(store, attrs, name) for name in sources]
     sizes = [g.attrs["N"] for g in groups]
     hashes = {name: g.attrs["config_hash"] for name, g in zip(sources, groups)}
     try:
@@ -388,115 +338,3 @@ def _recorded_recipe(store: Path, seed: int) -> dict | None:
     return dict(zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r").attrs)
 
 
-def drawn_seeds(group: zarr.Group) -> tuple[int, ...]:
-    """The seeds whose splits a store holds."""
-    if "splits" not in group:
-        return ()
-    names = [name for name in group["splits"].group_keys() if name.startswith("seed-")]
-    return tuple(sorted(int(name.removeprefix("seed-")) for name in names))
-
-
-def _seed_group(group: zarr.Group, store: Path, seed: int) -> zarr.Group:
-    key = f"splits/seed-{seed}"
-    if key not in group:
-        seeds = drawn_seeds(group)
-        available = ", ".join(map(str, seeds)) or "none; draw them with `synthcal split STORE`"
-        raise SplitError(f"{store}: {key}: no splits drawn for seed {seed!r}; seeds available: {available}")
-    return group[key]
-
-
-def read_split_indices(store: str | Path, split: str, seed: int) -> np.ndarray:
-    """The pool indices of one of the store's own splits.
-
-    Args:
-        store: the store.
-        split: ``train``, ``test`` or ``dictionary``.
-        seed: the split seed.
-
-    Returns:
-        (n,) int64 ascending indices into the store's pool.
-
-    Raises:
-        SplitError: unknown split or seed, or a dataset without an own dictionary.
-    """
-    store = Path(store)
-    if split not in SPLIT_NAMES:
-        raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(SPLIT_NAMES)}")
-    seed_group = _seed_group(open_store(store), store, seed)
-    if split not in seed_group:
-        raise SplitError(f"{store}: splits/seed-{seed}/{split}: dataset has no own {split} "
-                         f"(its dictionary comes from other datasets: load it as the mixed dictionary)")
-    return seed_group[split][:]
-
-
-@dataclass(frozen=True)
-class MixedDictionary:
-    """A mixed dictionary's templates: which source store, which sample.
-
-    Attributes:
-        store: the target store.
-        sources: source dataset names.
-        stores: the source stores (beside the target).
-        source_config_hash: the pool each source index refers to.
-        source: (K,) int64 positions into ``sources``.
-        index: (K,) int64 pool indices in the source stores.
-    """
-
-    store: Path
-    sources: tuple[str, ...]
-    stores: tuple[Path, ...]
-    source_config_hash: dict[str, str]
-    source: np.ndarray
-    index: np.ndarray
-
-
-def read_mixed_dictionary(store: str | Path, seed: int) -> MixedDictionary:
-    """The (source, index) pairs of a seed's mixed dictionary.
-
-    Raises:
-        SplitError: unknown seed, or no mixed dictionary drawn.
-    """
-    store = Path(store)
-    seed_group = _seed_group(open_store(store), store, seed)
-    key = f"splits/seed-{seed}/mixed_dictionary"
-    if "mixed_dictionary" not in seed_group:
-        raise SplitError(f"{store}: {key}: no mixed dictionary here (the dataset has no sources, or they were "
-                         f"missing when the splits were drawn: generate them beside the store and run "
-                         f"`synthcal split {store}`)")
-    sub = seed_group["mixed_dictionary"]
-    sources = tuple(sub.attrs["sources"])
-    return MixedDictionary(
-        store=store, sources=sources, stores=tuple(source_store_path(store, s) for s in sources),
-        source_config_hash=dict(sub.attrs["source_config_hash"]), source=sub["source"][:], index=sub["index"][:],
-    )
-
-
-def read_mixed_samples(mixed: MixedDictionary) -> dict[str, np.ndarray]:
-    """Resolve templates to arrays from their source stores.
-
-    Returns:
-        ``image`` (K, H, W, 3) uint8, ``semantic`` (K, H, W) uint8,
-        ``homography`` (K, 3, 3) float64 in the **source** scene's bird's-eye frame,
-        ``source`` and ``index`` (K,) int64.
-
-    Raises:
-        SplitError: a source store missing, incompatible, or regenerated since.
-    """
-    target_attrs = dict(open_store(mixed.store).attrs)
-    out: dict[str, np.ndarray] = {}
-    for k, name in enumerate(mixed.sources):
-        group = _open_source(mixed.store, target_attrs, name, mixed.source_config_hash.get(name))
-        mask = mixed.source == k
-        if not mask.any():  # fewer templates than sources
-            continue
-        for key, values in read_samples(group, mixed.index[mask]).items():
-            if key not in out:
-                out[key] = np.empty((len(mixed.index), *values.shape[1:]), values.dtype)
-            out[key][mask] = values
-    out["source"], out["index"] = mixed.source, mixed.index
-    return out
-
-
-def resolve_mixed_dictionary(store: str | Path, seed: int) -> dict[str, np.ndarray]:
-    """One call: a seed's mixed dictionary as arrays (see :func:`read_mixed_samples`)."""
-    return read_mixed_samples(read_mixed_dictionary(store, seed))

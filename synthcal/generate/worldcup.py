@@ -50,7 +50,7 @@ from synthcal.config import ConfigError, DatasetSpec, GridConfig
 from synthcal.generate.camera import decompose_homography, intrinsics, orient_homography
 from synthcal.generate.scenes import Scene
 from synthcal.generate.scenes import soccer
-from synthcal.generate.store import CAMERA_FIELDS
+from synthcal.store import CAMERA_FIELDS
 
 __all__ = [
     "METRES_PER_YARD",

@@ -1,4 +1,4 @@
-"""Training the stages of the paper's models (SPEC §7), and caching the shared ones.
+"""Training the stages of the paper's models (SPEC §7).
 
 The stages
 ----------
@@ -18,16 +18,7 @@ The stages
 * :func:`train_end_to_end` — :meth:`CompositeModel.training_loss` under the warm-up
   schedule scaled to the profile's epoch count (:func:`end_to_end_stage`).
 
-Working resolution
-------------------
-Networks see maps of ``work_size`` ``(w, h)``, which may be smaller than the
-store's ``(W, H)``. Pixel centres correspond by
-``x_w = (x + 0.5) · w / W − 0.5`` (same for rows), the affine matrix ``A`` of
-:func:`resolution_matrix`; a homography ``H`` of the full image is ``A H`` at the
-working resolution and back by ``A⁻¹``. Class maps are reduced by averaging their
-one-hot maps over each output pixel's footprint (area interpolation, exact for
-integer factors) and taking the most frequent class; RGB by area averaging.
-Ground-truth matching always uses the full-resolution maps, its definition.
+Working resolution: :mod:`synthcal.training.resolution`.
 
 Anti-aliased scene
 ------------------
@@ -41,28 +32,13 @@ gives no signal. The loss therefore samples the one-hot scene reduced by
 through the same renderer, so the true homography still costs exactly 0; the
 estimates themselves are untouched.
 
-Caching
--------
-:class:`StageCache` keeps ``state_dict``\\ s under ``<root>/<stage>/<key>.pt``, the
-key a hash of everything that determines the stage (the data's bytes, sizes,
-epochs, seed), written atomically (temporary name, then ``os.replace``), so a
-reader sees a whole file or none. A process about to train a stage holds an
-exclusive ``flock`` on ``<root>/<stage>/.<key>.lock``; another process (or thread)
-that needs the same stage waits for it and then loads its file instead of training
-again. Where ``flock`` is unavailable (Windows) or not honoured (some network file
-systems), both train and the last rename wins; both files are valid.
+Caching: :mod:`synthcal.training.cache`.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
-import os
-import tempfile
-from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Callable, ContextManager, Iterator
+from typing import Iterator
 
 import numpy as np
 import torch
@@ -83,14 +59,11 @@ from synthcal.models import (
     warp_semantic,
 )
 
+
+from synthcal.training.resolution import NUM_CLASSES, _CHUNK, reduce_class_maps, reduce_images, resolution_matrix  # noqa: F401
+
 __all__ = [
-    "NUM_CLASSES",
     "PAPER_END_TO_END_EPOCHS",
-    "resolution_matrix",
-    "reduce_class_maps",
-    "reduce_images",
-    "digest",
-    "StageCache",
     "TrainingData",
     "reduce_scene",
     "composite_model",
@@ -105,144 +78,8 @@ __all__ = [
     "estimate",
 ]
 
-NUM_CLASSES = 4
 # The paper's warm-up thresholds (20, 40) read as fractions of a 100-epoch schedule.
 PAPER_END_TO_END_EPOCHS = 100
-_CHUNK = 256
-
-
-# --- resolution ----------------------------------------------------------------------------
-
-
-def resolution_matrix(full_size: tuple[int, int], work_size: tuple[int, int]) -> np.ndarray:
-    """``A``: full-image pixels → working-resolution pixels (pixel centres kept).
-
-    Args:
-        full_size: ``(W, H)`` of the stored images.
-        work_size: ``(w, h)`` the networks use.
-
-    Returns:
-        (3, 3) float64 affine matrix.
-    """
-    sx, sy = work_size[0] / full_size[0], work_size[1] / full_size[1]
-    return np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
-
-
-def reduce_class_maps(semantics: np.ndarray, work_size: tuple[int, int]) -> Tensor:
-    """(K, H, W) class ids → (K, h, w) uint8 class ids (most frequent in the footprint)."""
-    semantics = np.asarray(semantics)
-    if semantics.shape[-1:-3:-1] == tuple(work_size):
-        return torch.from_numpy(semantics.astype(np.uint8))
-    out = []
-    for start in range(0, len(semantics), _CHUNK):
-        maps = one_hot_maps(torch.from_numpy(semantics[start:start + _CHUNK]), NUM_CLASSES)
-        out.append(F.interpolate(maps, size=work_size[::-1], mode="area").argmax(1).to(torch.uint8))
-    return torch.cat(out) if out else torch.empty(0, *work_size[::-1], dtype=torch.uint8)
-
-
-def reduce_images(images: np.ndarray, work_size: tuple[int, int]) -> Tensor:
-    """(K, H, W, 3) uint8 RGB → (K, 3, h, w) uint8 (area average)."""
-    out = []
-    for start in range(0, len(images), _CHUNK):
-        chunk = torch.from_numpy(np.asarray(images[start:start + _CHUNK])).permute(0, 3, 1, 2)
-        if chunk.shape[-1:-3:-1] != tuple(work_size):
-            chunk = F.interpolate(chunk.float(), size=work_size[::-1], mode="area").round().to(torch.uint8)
-        out.append(chunk.contiguous())
-    return torch.cat(out) if out else torch.empty(0, 3, *work_size[::-1], dtype=torch.uint8)
-
-
-# --- cache ---------------------------------------------------------------------------------
-
-
-def digest(*parts: Any) -> str:
-    """Hex digest of arrays (shape, dtype and bytes) and JSON-able values, in order."""
-    h = hashlib.blake2b(digest_size=16)
-    for part in parts:
-        if isinstance(part, (np.ndarray, Tensor)):
-            array = np.ascontiguousarray(part.cpu().numpy() if isinstance(part, Tensor) else part)
-            h.update(f"{array.shape}{array.dtype}".encode())
-            h.update(memoryview(array).cast("B"))
-        else:
-            h.update(json.dumps(part, sort_keys=True, default=str).encode())
-    return h.hexdigest()
-
-
-class StageCache:
-    """Trained stages on disk, ``<root>/<stage>/<key>.pt`` (module docstring).
-
-    Args:
-        root: the cache folder (created on first write); None disables caching.
-    """
-
-    def __init__(self, root: str | Path | None) -> None:
-        self.root = None if root is None else Path(root)
-
-    def path(self, stage: str, key: str) -> Path | None:
-        return None if self.root is None else self.root / stage / f"{key}.pt"
-
-    def load(self, stage: str, key: str) -> Any | None:
-        """The stored object, or None when absent (or caching is off)."""
-        path = self.path(stage, key)
-        if path is None or not path.is_file():
-            return None
-        return torch.load(path, map_location="cpu", weights_only=True)
-
-    def save(self, stage: str, key: str, obj: Any) -> None:
-        """Store ``obj`` (tensors, state dicts) atomically."""
-        path = self.path(stage, key)
-        if path is None:
-            return
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
-        os.close(fd)
-        try:
-            torch.save(obj, tmp)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-
-    def cached(self, stage: str, key: str, build: Callable[[], Any]) -> tuple[Any, bool]:
-        """``(obj, trained)``: the stored object, or ``build()`` stored then returned.
-
-        While one caller builds, others asking for the same stage and key wait, then
-        load what it stored.
-        """
-        obj = self.load(stage, key)
-        if obj is not None:
-            return obj, False
-        with self._building(stage, key):
-            obj = self.load(stage, key)  # built by whoever held the lock before us
-            if obj is not None:
-                return obj, False
-            obj = build()
-            self.save(stage, key, obj)
-        return obj, True
-
-    def _building(self, stage: str, key: str) -> ContextManager[None]:
-        path = self.path(stage, key)
-        if path is None or _flock is None:
-            return nullcontext()
-        return _exclusive_lock(path.with_name(f".{key}.lock"))
-
-
-try:
-    from fcntl import LOCK_EX, LOCK_UN, flock as _flock
-except ImportError:  # Windows: no advisory locks; concurrent builders both build
-    _flock = None
-
-
-@contextmanager
-def _exclusive_lock(path: Path) -> Iterator[None]:
-    """Hold an exclusive advisory lock on ``path`` (created if missing; left in place)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        _flock(fd, LOCK_EX)
-        yield
-    finally:
-        _flock(fd, LOCK_UN)
-        os.close(fd)
 
 
 # --- data ----------------------------------------------------------------------------------

@@ -1,35 +1,7 @@
-"""The estimator plug-in interface (SPEC §9), loading, and simple bundled estimators.
+"""The classic bundled estimators: no learning beyond a colour table and a template search.
 
 Convention: every homography maps a bird's-eye pixel to an image pixel,
 ``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).
-
-The interface
--------------
-An estimator is any class with
-
-* ``fit(train, dictionary, scene) -> None`` — called once per (dataset, seed).
-  ``train`` and ``dictionary`` are split objects exposing ``.images`` (K, H, W, 3)
-  uint8 RGB, ``.semantics`` (K, H, W) uint8 class ids, ``.homographies``
-  (K, 3, 3) float64, ``.indices`` (K,) int64 positions in the store and ``.store``
-  (the store's path); the arrays may be NumPy or lazy array-likes that support
-  slicing and ``numpy.asarray``. ``scene`` exposes ``.image`` (Hs, Ws, 3) uint8,
-  ``.semantic`` (Hs, Ws) uint8, ``.palette`` (4 RGB triples) and ``.classes``
-  (4 names). The objects come from ``synthcal.data.load_split``; an estimator
-  should use these attributes only.
-* ``predict(images) -> (B, 3, 3)`` — ``images`` (B, H, W, 3) uint8 RGB; returns
-  bird's-eye → image homographies as float64, any positive or negative scale
-  (the harness fixes the sign, SPEC §2). A row may be NaN where the estimator
-  gives up: the image is then counted as a failure (SPEC §8).
-* optional ``predict_semantic(semantics) -> (B, 3, 3)`` — the same from the
-  images' (B, H, W) uint8 class maps instead of their pixels
-  (:class:`SemanticEstimator`). Under ``segmentation: ground-truth`` (SPEC §7) the
-  harness calls it with the *true* class maps of the test images, so that the
-  segmentation is the same, perfect, for every compared estimator; estimators
-  without it are unaffected by that setting.
-
-``load_estimator(name_or_path, **options)`` turns a command-line/config value
-into an instance: a dotted path ``package.module:Class``, a name in the
-entry-point group ``synthcal.estimators``, or a bundled short name.
 
 Bundled here (the learned models live in :mod:`synthcal.models`)
 ------------------------------------------------------------------
@@ -50,74 +22,30 @@ Bundled here (the learned models live in :mod:`synthcal.models`)
     template's and the image's semantic maps: ``H = W · H_k`` with ``W`` the found
     template-pixel → image-pixel warp.
 ``proposed``, ``baseline`` (alias ``sha2020``)
-    The paper's models, UNet → Siamese → STN (:mod:`synthcal.eval.paper_models`).
+    The paper's models, UNet → Siamese → STN (:mod:`synthcal.estimators.paper`).
 """
 
 from __future__ import annotations
 
-import importlib
-from importlib import metadata
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import cv2
 import numpy as np
 
+from synthcal.estimators.protocol import Segmenter
+
 __all__ = [
-    "ENTRY_POINT_GROUP",
-    "Estimator",
-    "SemanticEstimator",
-    "Segmenter",
-    "EstimatorError",
     "ColourSegmenter",
     "IdentityEstimator",
     "TemplateEstimator",
     "ECCEstimator",
-    "BUNDLED",
-    "known_estimators",
-    "resolve_estimator",
-    "load_estimator",
     "one_hot",
     "match_templates",
     "medoid_index",
     "ecc_warp",
 ]
 
-ENTRY_POINT_GROUP = "synthcal.estimators"
 NUM_CLASSES = 4
-
-
-@runtime_checkable
-class Estimator(Protocol):
-    """A homography estimator (SPEC §9); see the module docstring for argument types."""
-
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
-        """Learn from the train split, the template dictionary and the scene."""
-
-    def predict(self, images: np.ndarray) -> np.ndarray:
-        """(B, H, W, 3) uint8 RGB → (B, 3, 3) float64 bird's-eye → image homographies."""
-
-
-@runtime_checkable
-class SemanticEstimator(Estimator, Protocol):
-    """An estimator that can also work from class maps (``segmentation: ground-truth``)."""
-
-    def predict_semantic(self, semantics: np.ndarray) -> np.ndarray:
-        """(B, H, W) uint8 class ids → (B, 3, 3) float64 bird's-eye → image homographies."""
-
-
-@runtime_checkable
-class Segmenter(Protocol):
-    """RGB → class map, the replaceable first stage of the template estimators."""
-
-    def fit(self, images: np.ndarray, semantics: np.ndarray) -> None:
-        """Learn from (K, H, W, 3) uint8 images and their (K, H, W) uint8 class maps."""
-
-    def __call__(self, images: np.ndarray) -> np.ndarray:
-        """(B, H, W, 3) uint8 RGB → (B, H, W) uint8 class ids."""
-
-
-class EstimatorError(ValueError):
-    """An estimator name or path that cannot be resolved, or an object that is no estimator."""
 
 
 # --- segmentation -----------------------------------------------------------------------
@@ -388,107 +316,3 @@ class ECCEstimator(TemplateEstimator):
             if warp is not None:
                 out[k] = warp @ out[k]
         return out
-
-
-# --- loading ----------------------------------------------------------------------------
-
-BUNDLED: dict[str, str] = {
-    "identity": "synthcal.eval.estimators:IdentityEstimator",
-    "template": "synthcal.eval.estimators:TemplateEstimator",
-    "ecc": "synthcal.eval.estimators:ECCEstimator",
-    "proposed": "synthcal.eval.paper_models:ProposedEstimator",
-    "baseline": "synthcal.eval.paper_models:BaselineEstimator",
-    "sha2020": "synthcal.eval.paper_models:BaselineEstimator",
-}
-
-
-def _entry_points() -> dict[str, metadata.EntryPoint]:
-    # Looked up through the module at call time so tests can monkeypatch it.
-    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
-
-
-def known_estimators() -> dict[str, str]:
-    """Resolvable short names → ``module:Class``: bundled ones, then entry points."""
-    names = dict(BUNDLED)
-    for name, ep in _entry_points().items():
-        names.setdefault(name, ep.value)
-    return names
-
-
-def _import_dotted(path: str) -> Any:
-    module_name, _, attribute = path.partition(":")
-    if not module_name or not attribute:
-        raise EstimatorError(f"estimator {path!r}: expected 'package.module:Class'")
-    try:
-        obj = importlib.import_module(module_name)
-    except ImportError as error:
-        raise EstimatorError(f"estimator {path!r}: cannot import module {module_name!r} ({error})") from error
-    for part in attribute.split("."):
-        try:
-            obj = getattr(obj, part)
-        except AttributeError:
-            raise EstimatorError(
-                f"estimator {path!r}: module {module_name!r} has no attribute {attribute!r}") from None
-    return obj
-
-
-def resolve_estimator(name_or_path: str) -> Any:
-    """The class (or factory) a command-line or config value names, not instantiated.
-
-    Resolution order: a value containing ``:`` is a dotted path
-    ``package.module:Class``; otherwise a bundled short name (``identity``,
-    ``template``, ``ecc``, ``proposed``, ``baseline`` — bundled names cannot be
-    shadowed by third-party packages); otherwise an entry point of that name in
-    group ``synthcal.estimators``.
-
-    Raises:
-        EstimatorError: the value cannot be resolved (the message names it and
-            lists the known names), or it is not callable.
-    """
-    value = str(name_or_path)
-    if ":" in value:
-        cls = _import_dotted(value)
-    elif value in BUNDLED:
-        cls = _import_dotted(BUNDLED[value])
-    else:
-        entry_points = _entry_points()
-        if value not in entry_points:
-            known = ", ".join(sorted(known_estimators()))
-            raise EstimatorError(
-                f"unknown estimator {value!r}: not a 'package.module:Class' path, a bundled name "
-                f"or an entry point in group {ENTRY_POINT_GROUP!r}; known: {known}"
-            )
-        try:
-            cls = entry_points[value].load()
-        except Exception as error:  # a broken plug-in must name itself
-            raise EstimatorError(f"estimator {value!r}: entry point {entry_points[value].value!r} "
-                                 f"failed to load ({error})") from error
-    if not callable(cls):
-        raise EstimatorError(f"estimator {value!r}: {cls!r} is not a class or factory")
-    return cls
-
-
-def load_estimator(name_or_path: str, **options: Any) -> Estimator:
-    """Instantiate an estimator from a command-line or config value.
-
-    Args:
-        name_or_path: the value to resolve (see :func:`resolve_estimator`).
-        **options: keyword arguments for the class's constructor.
-
-    Returns:
-        The estimator instance.
-
-    Raises:
-        EstimatorError: the value cannot be resolved, the options do not fit the
-            constructor, or the object has no ``fit``/``predict``.
-    """
-    value = str(name_or_path)
-    cls = resolve_estimator(value)
-    try:
-        estimator = cls(**options)
-    except TypeError as error:  # e.g. an option the class does not take
-        raise EstimatorError(f"estimator {value!r}: cannot construct with options {options}: {error}") from error
-    if not isinstance(estimator, Estimator):
-        raise EstimatorError(f"estimator {value!r}: {estimator!r} has no fit(train, dictionary, scene) "
-                             "and predict(images) methods")
-    return estimator

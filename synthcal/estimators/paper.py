@@ -18,7 +18,7 @@ Options
     and the earlier stages frozen. ``end-to-end``: all three from scratch with
     ``η L_CE + τ L_con + γ L_warp`` and the warm-up of SPEC §7, its thresholds
     scaled to ``settings.end_to_end_epochs``
-    (:func:`synthcal.eval.training.end_to_end_stage`).
+    (:func:`synthcal.training.end_to_end_stage`).
 ``loss``
     ``L_warp``: ``mse``, ``dice``, ``top-mse``, ``top-dice``.
 ``matching``
@@ -28,7 +28,7 @@ Options
     ``ground-truth``: no UNet is trained; the Siamese and STN are trained on the
     true semantic maps of the train split, and at test time the harness passes the
     test images' true maps to :meth:`predict_semantic` (the protocol's optional
-    method, :class:`synthcal.eval.estimators.SemanticEstimator`). The
+    method, :class:`synthcal.estimators.SemanticEstimator`). The
     segmentation is then perfect — and the same — for every compared estimator,
     which isolates matching and STN and makes CPU studies affordable.
     :meth:`predict` (pixels) raises in that mode: there is nothing to segment with.
@@ -71,7 +71,7 @@ from synthcal.models import (
     one_hot_maps,
 )
 
-from .training import (
+from synthcal.training import (
     NUM_CLASSES,
     ClassMapLogits,
     StageCache,

@@ -32,8 +32,8 @@ import numpy as np
 import zarr
 from zarr.codecs import BloscCodec
 
-from synthcal.generate.shardread import read_rows
-from synthcal.generate.shardwrite import ShardLayout, shard_layout, write_shard
+from synthcal.store.shards import read_rows
+from synthcal.store.shards import ShardLayout, shard_layout, write_shard
 
 __all__ = [
     "FORMAT_VERSION",

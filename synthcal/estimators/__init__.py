@@ -1,0 +1,49 @@
+"""Estimators: the plug-in interface (SPEC §9), its loader and the bundled estimators.
+
+* :mod:`synthcal.estimators.protocol` — what an estimator is (``fit``, ``predict``);
+* :mod:`synthcal.estimators.registry` — a name or ``package.module:Class`` → an instance;
+* :mod:`synthcal.estimators.classic` — ``identity``, ``template``, ``ecc``;
+* :mod:`synthcal.estimators.paper` — the paper's ``proposed`` and ``baseline`` models.
+
+Convention: every homography maps a bird's-eye pixel to an image pixel,
+``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).
+"""
+
+from synthcal.estimators.classic import (
+    ColourSegmenter,
+    ECCEstimator,
+    IdentityEstimator,
+    TemplateEstimator,
+    ecc_warp,
+    match_templates,
+    medoid_index,
+    one_hot,
+)
+from synthcal.estimators.protocol import Estimator, EstimatorError, Segmenter, SemanticEstimator
+from synthcal.estimators.registry import (
+    BUNDLED,
+    ENTRY_POINT_GROUP,
+    known_estimators,
+    load_estimator,
+    resolve_estimator,
+)
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "BUNDLED",
+    "Estimator",
+    "SemanticEstimator",
+    "Segmenter",
+    "EstimatorError",
+    "ColourSegmenter",
+    "IdentityEstimator",
+    "TemplateEstimator",
+    "ECCEstimator",
+    "known_estimators",
+    "resolve_estimator",
+    "load_estimator",
+    "one_hot",
+    "match_templates",
+    "medoid_index",
+    "ecc_warp",
+]

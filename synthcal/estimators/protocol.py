@@ -1,0 +1,71 @@
+"""The estimator plug-in interface (SPEC §9): what ``fit`` and ``predict`` receive and return.
+
+Convention: every homography maps a bird's-eye pixel to an image pixel,
+``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).
+
+The interface
+-------------
+An estimator is any class with
+
+* ``fit(train, dictionary, scene) -> None`` — called once per (dataset, seed).
+  ``train`` and ``dictionary`` are split objects exposing ``.images`` (K, H, W, 3)
+  uint8 RGB, ``.semantics`` (K, H, W) uint8 class ids, ``.homographies``
+  (K, 3, 3) float64, ``.indices`` (K,) int64 positions in the store and ``.store``
+  (the store's path); the arrays may be NumPy or lazy array-likes that support
+  slicing and ``numpy.asarray``. ``scene`` exposes ``.image`` (Hs, Ws, 3) uint8,
+  ``.semantic`` (Hs, Ws) uint8, ``.palette`` (4 RGB triples) and ``.classes``
+  (4 names). The objects come from ``synthcal.data.load_split``; an estimator
+  should use these attributes only.
+* ``predict(images) -> (B, 3, 3)`` — ``images`` (B, H, W, 3) uint8 RGB; returns
+  bird's-eye → image homographies as float64, any positive or negative scale
+  (the harness fixes the sign, SPEC §2). A row may be NaN where the estimator
+  gives up: the image is then counted as a failure (SPEC §8).
+* optional ``predict_semantic(semantics) -> (B, 3, 3)`` — the same from the
+  images' (B, H, W) uint8 class maps instead of their pixels
+  (:class:`SemanticEstimator`). Under ``segmentation: ground-truth`` (SPEC §7) the
+  harness calls it with the *true* class maps of the test images, so that the
+  segmentation is the same, perfect, for every compared estimator; estimators
+  without it are unaffected by that setting.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["Estimator", "SemanticEstimator", "Segmenter", "EstimatorError"]
+
+
+@runtime_checkable
+class Estimator(Protocol):
+    """A homography estimator (SPEC §9); see the module docstring for argument types."""
+
+    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+        """Learn from the train split, the template dictionary and the scene."""
+
+    def predict(self, images: np.ndarray) -> np.ndarray:
+        """(B, H, W, 3) uint8 RGB → (B, 3, 3) float64 bird's-eye → image homographies."""
+
+
+@runtime_checkable
+class SemanticEstimator(Estimator, Protocol):
+    """An estimator that can also work from class maps (``segmentation: ground-truth``)."""
+
+    def predict_semantic(self, semantics: np.ndarray) -> np.ndarray:
+        """(B, H, W) uint8 class ids → (B, 3, 3) float64 bird's-eye → image homographies."""
+
+
+@runtime_checkable
+class Segmenter(Protocol):
+    """RGB → class map, the replaceable first stage of the template estimators."""
+
+    def fit(self, images: np.ndarray, semantics: np.ndarray) -> None:
+        """Learn from (K, H, W, 3) uint8 images and their (K, H, W) uint8 class maps."""
+
+    def __call__(self, images: np.ndarray) -> np.ndarray:
+        """(B, H, W, 3) uint8 RGB → (B, H, W) uint8 class ids."""
+
+
+class EstimatorError(ValueError):
+    """An estimator name or path that cannot be resolved, or an object that is no estimator."""

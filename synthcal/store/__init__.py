@@ -1,0 +1,56 @@
+"""The store: the format of a dataset's Zarr v3 store (SPEC §5), its shards and its splits.
+
+* :mod:`synthcal.store.format` — creating, opening and reading a store;
+* :mod:`synthcal.store.shards` — whole shard files written and read byte for byte
+  as Zarr's sharding codec lays them out;
+* :mod:`synthcal.store.splits` — reading the per-seed splits a store holds (drawing
+  them is generation's job, :mod:`synthcal.generate.splits`).
+
+Imports only :mod:`synthcal.config` of synthcal.
+"""
+
+from synthcal.store.format import (
+    CAMERA_FIELDS,
+    FORMAT_VERSION,
+    StoreError,
+    create_store,
+    image_layouts,
+    open_store,
+    read_samples,
+    software_versions,
+    write_samples,
+)
+from synthcal.store.splits import (
+    SPLIT_NAMES,
+    MixedDictionary,
+    SplitError,
+    drawn_seeds,
+    read_mixed_dictionary,
+    read_mixed_samples,
+    read_split_indices,
+    resolve_mixed_dictionary,
+    source_store_path,
+    store_spec,
+)
+
+__all__ = [
+    "CAMERA_FIELDS",
+    "FORMAT_VERSION",
+    "StoreError",
+    "create_store",
+    "image_layouts",
+    "open_store",
+    "read_samples",
+    "software_versions",
+    "write_samples",
+    "SPLIT_NAMES",
+    "MixedDictionary",
+    "SplitError",
+    "drawn_seeds",
+    "read_mixed_dictionary",
+    "read_mixed_samples",
+    "read_split_indices",
+    "resolve_mixed_dictionary",
+    "source_store_path",
+    "store_spec",
+]

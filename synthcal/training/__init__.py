@@ -1,0 +1,48 @@
+"""Training the stages of the paper's models (SPEC §7) and caching the shared ones.
+
+* :mod:`synthcal.training.resolution` — the networks' working resolution;
+* :mod:`synthcal.training.cache` — trained stages on disk, built once;
+* :mod:`synthcal.training.stages` — UNet, Siamese, STN and end-to-end training.
+
+Imports :mod:`synthcal.models` and NumPy/PyTorch only.
+"""
+
+from synthcal.training.cache import StageCache, digest
+from synthcal.training.resolution import NUM_CLASSES, reduce_class_maps, reduce_images, resolution_matrix
+from synthcal.training.stages import (
+    PAPER_END_TO_END_EPOCHS,
+    ClassMapLogits,
+    TrainingData,
+    composite_model,
+    embed_templates,
+    end_to_end_stage,
+    estimate,
+    input_maps,
+    reduce_scene,
+    train_end_to_end,
+    train_siamese,
+    train_stn,
+    train_unet,
+)
+
+__all__ = [
+    "NUM_CLASSES",
+    "PAPER_END_TO_END_EPOCHS",
+    "resolution_matrix",
+    "reduce_class_maps",
+    "reduce_images",
+    "digest",
+    "StageCache",
+    "TrainingData",
+    "reduce_scene",
+    "composite_model",
+    "ClassMapLogits",
+    "input_maps",
+    "embed_templates",
+    "train_unet",
+    "train_siamese",
+    "train_stn",
+    "end_to_end_stage",
+    "train_end_to_end",
+    "estimate",
+]

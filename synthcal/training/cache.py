@@ -1,0 +1,118 @@
+"""Trained stages cached on disk, so shared stages (UNet, Siamese) train once.
+
+:class:`StageCache` keeps ``state_dict``\\ s under ``<root>/<stage>/<key>.pt``, the
+key a hash of everything that determines the stage (the data's bytes, sizes,
+epochs, seed), written atomically (temporary name, then ``os.replace``), so a
+reader sees a whole file or none. A process about to train a stage holds an
+exclusive ``flock`` on ``<root>/<stage>/.<key>.lock``; another process (or thread)
+that needs the same stage waits for it and then loads its file instead of training
+again. Where ``flock`` is unavailable (Windows) or not honoured (some network file
+systems), both train and the last rename wins; both files are valid.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from contextlib import contextmanager, nullcontext
+from pathlib import Path
+from typing import Any, Callable, ContextManager, Iterator
+
+import numpy as np
+import torch
+from torch import Tensor
+
+__all__ = ["digest", "StageCache"]
+
+
+def digest(*parts: Any) -> str:
+    """Hex digest of arrays (shape, dtype and bytes) and JSON-able values, in order."""
+    h = hashlib.blake2b(digest_size=16)
+    for part in parts:
+        if isinstance(part, (np.ndarray, Tensor)):
+            array = np.ascontiguousarray(part.cpu().numpy() if isinstance(part, Tensor) else part)
+            h.update(f"{array.shape}{array.dtype}".encode())
+            h.update(memoryview(array).cast("B"))
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
+class StageCache:
+    """Trained stages on disk, ``<root>/<stage>/<key>.pt`` (module docstring).
+
+    Args:
+        root: the cache folder (created on first write); None disables caching.
+    """
+
+    def __init__(self, root: str | Path | None) -> None:
+        self.root = None if root is None else Path(root)
+
+    def path(self, stage: str, key: str) -> Path | None:
+        return None if self.root is None else self.root / stage / f"{key}.pt"
+
+    def load(self, stage: str, key: str) -> Any | None:
+        """The stored object, or None when absent (or caching is off)."""
+        path = self.path(stage, key)
+        if path is None or not path.is_file():
+            return None
+        return torch.load(path, map_location="cpu", weights_only=True)
+
+    def save(self, stage: str, key: str, obj: Any) -> None:
+        """Store ``obj`` (tensors, state dicts) atomically."""
+        path = self.path(stage, key)
+        if path is None:
+            return
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
+        os.close(fd)
+        try:
+            torch.save(obj, tmp)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+
+    def cached(self, stage: str, key: str, build: Callable[[], Any]) -> tuple[Any, bool]:
+        """``(obj, trained)``: the stored object, or ``build()`` stored then returned.
+
+        While one caller builds, others asking for the same stage and key wait, then
+        load what it stored.
+        """
+        obj = self.load(stage, key)
+        if obj is not None:
+            return obj, False
+        with self._building(stage, key):
+            obj = self.load(stage, key)  # built by whoever held the lock before us
+            if obj is not None:
+                return obj, False
+            obj = build()
+            self.save(stage, key, obj)
+        return obj, True
+
+    def _building(self, stage: str, key: str) -> ContextManager[None]:
+        path = self.path(stage, key)
+        if path is None or _flock is None:
+            return nullcontext()
+        return _exclusive_lock(path.with_name(f".{key}.lock"))
+
+
+try:
+    from fcntl import LOCK_EX, LOCK_UN, flock as _flock
+except ImportError:  # Windows: no advisory locks; concurrent builders both build
+    _flock = None
+
+
+@contextmanager
+def _exclusive_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive advisory lock on ``path`` (created if missing; left in place)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        _flock(fd, LOCK_EX)
+        yield
+    finally:
+        _flock(fd, LOCK_UN)
+        os.close(fd)

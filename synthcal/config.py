@@ -6,6 +6,13 @@ and the offending value, and is raised before anything is written.
 A dataset's *resolved* configuration (:class:`DatasetSpec`) is the dataset entry
 with the file's ``defaults`` filled in and a *profile* (``smoke``, ``quick``,
 ``paper``) applied; its hash is recorded in every store it produces.
+
+This module imports nothing of synthcal but the leaf ``synthcal.options`` (it is
+the root of the import graph).
+The few facts of the generator that validation needs are recorded here as data:
+the names of the built-in scenes (:data:`BUILTIN_SCENE_NAMES`) and the fixed
+train/test sizes of each set of given poses (:data:`POSE_SET_SPLITS`).
+``synthcal.generate`` checks that its scenes and pose files agree with them.
 """
 
 from __future__ import annotations
@@ -16,11 +23,17 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from synthcal.options import Segmentation
+
 __all__ = [
     "ConfigError",
+    "GRID_AXES",
+    "BUILTIN_SCENE_NAMES",
+    "POSE_SET_SPLITS",
     "AxisRange",
     "GridConfig",
     "AppearanceConfig",
@@ -37,6 +50,17 @@ __all__ = [
 ]
 
 GRID_AXES = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
+
+# The built-in scenes a dataset's ``scene:`` may name besides the file's own
+# ``scenes:``, in listing order; synthcal.generate.scenes.BUILTIN_SCENES has exactly these keys.
+BUILTIN_SCENE_NAMES: tuple[str, ...] = (
+    "intersection-1", "intersection-2", "intersection-3", "intersection-4", "intersection-5", "soccer",
+)
+
+# Each set of given poses (``poses:``) → the sizes of its fixed train/test partition
+# (worldcup2014: the 209 train_val + 186 test frames; synthcal.generate.worldcup
+# checks its annotation files against these).
+POSE_SET_SPLITS: dict[str, dict[str, int]] = {"worldcup2014": {"train": 209, "test": 186}}
 
 
 class ConfigError(ValueError):
@@ -62,10 +86,26 @@ class AxisRange(_Strict):
         return step
 
     @model_validator(mode="after")
-    def _non_empty(self) -> "AxisRange":
+    def _non_empty(self) -> AxisRange:
         if self.stop < self.start:
             raise ValueError(f"empty range: stop {self.stop} < start {self.start}")
         return self
+
+    def values(self, name: str = "") -> np.ndarray:
+        """The values of the range.
+
+        Args:
+            name: the axis name; a ``pan_deg`` range spanning 360° drops its upper end
+                (≡ its lower end).
+
+        Returns:
+            (K,) float64 values.
+        """
+        count = int(np.floor((self.stop - self.start) / self.step + 1e-9)) + 1
+        values = self.start + self.step * np.arange(count, dtype=np.float64)
+        if name == "pan_deg" and count > 1 and np.isclose(values[-1] - values[0], 360.0):
+            values = values[:-1]
+        return values
 
 
 class GridConfig(_Strict):
@@ -80,11 +120,26 @@ class GridConfig(_Strict):
     jitter: bool = False
 
     @model_validator(mode="after")
-    def _position_all_or_none(self) -> "GridConfig":
+    def _position_all_or_none(self) -> GridConfig:
         given = [axis for axis in ("x", "y", "z") if getattr(self, axis) is not None]
         if given and len(given) != 3:
             raise ValueError(f"x, y and z must be given together or not at all, got only {given}")
         return self
+
+    def axis(self, name: str) -> AxisRange | None:
+        """The range of one of :data:`GRID_AXES` (None: X/Y/Z left to the scene)."""
+        if name not in GRID_AXES:
+            raise KeyError(f"grid axis must be one of {', '.join(GRID_AXES)}, got {name!r}")
+        axis: AxisRange | None = getattr(self, name)
+        return axis
+
+    def size(self) -> int:
+        """Number of cameras in the grid (a missing X/Y/Z axis counts as one value)."""
+        size = 1
+        for name in GRID_AXES:
+            axis = self.axis(name)
+            size *= 1 if axis is None else len(axis.values(name))
+        return size
 
 
 class AppearanceConfig(_Strict):
@@ -155,7 +210,7 @@ class DatasetConfig(_Strict):
         return (value,) if isinstance(value, str) else value
 
     @model_validator(mode="after")
-    def _cameras(self) -> "DatasetConfig":
+    def _cameras(self) -> DatasetConfig:
         if (self.grid is None) == (self.poses is None):
             given = "both" if self.grid is not None else "neither"
             raise ValueError(f"give exactly one of grid: (sampled cameras) or poses: (given cameras), got {given}")
@@ -232,7 +287,7 @@ class TrainingProfile(TrainingSettings):
     command line's ``--segmentation`` overrides it.
     """
 
-    segmentation: Literal["unet", "ground-truth"] = "unet"
+    segmentation: Segmentation = "unet"
 
     def settings(self) -> dict[str, Any]:
         """The :class:`TrainingSettings` fields as a plain dict (what estimators take)."""
@@ -343,10 +398,11 @@ class LoadedConfig:
         Args:
             dataset: a key of ``datasets``.
             profile: a key of ``profiles`` (None: the file's defaults alone).
-            pool_size: overrides the pool size (the CLI's ``--n``).
+            pool_size: overrides the pool size (≥ 1; not for a dataset of given poses).
 
         Raises:
-            ConfigError: unknown dataset or profile, or a pool larger than its grid.
+            ConfigError: unknown dataset or profile, a bad ``pool_size``, or a pool
+                larger than its grid.
         """
         cfg = self.config
         if dataset not in cfg.datasets:
@@ -362,13 +418,9 @@ class LoadedConfig:
         d = cfg.defaults
         splits = prof.splits or entry.splits or d.splits
         if entry.poses is not None:
-            pool, splits = self._pose_pool(dataset, entry, splits, pool_size)
+            pool, splits = self._pose_pool(dataset, entry.poses, entry.splits, splits, pool_size)
         else:
-            pool = entry.pool_size if prof.max_pool_size is None else min(entry.pool_size, prof.max_pool_size)
-        if pool_size is not None:
-            if pool_size < 1:
-                raise ConfigError(f"--n: the pool size must be ≥ 1 (value {pool_size})")
-            pool = pool_size
+            pool = self._grid_pool(dataset, entry, prof, pool_size)
         spec = DatasetSpec(
             name=dataset,
             scene=entry.scene,
@@ -389,9 +441,7 @@ class LoadedConfig:
         )
         if spec.grid is None:
             return spec
-        from synthcal.generate.grid import grid_size  # late import: grid imports config
-
-        size = grid_size(spec.grid)
+        size = spec.grid.size()
         if spec.pool_size > size:
             raise ConfigError(
                 f"{self.path}: datasets.{dataset}.pool_size: {spec.pool_size} samples asked for, "
@@ -414,59 +464,75 @@ class LoadedConfig:
             )
         return self.config.profiles[profile].training or TrainingProfile()
 
+    def _grid_pool(self, dataset: str, entry: DatasetConfig, prof: ProfileConfig, pool_size: int | None) -> int:
+        """Pool size of a grid dataset: ``pool_size`` if given, else the entry's capped by the profile."""
+        if pool_size is not None:
+            if pool_size < 1:
+                raise ConfigError(f"pool_size: the pool size must be ≥ 1 (value {pool_size})")
+            return pool_size
+        if entry.pool_size is None:  # DatasetConfig requires it with grid:, so only a hand-built entry gets here
+            raise ConfigError(f"{self.path}: datasets.{dataset}.pool_size: missing required key")
+        return entry.pool_size if prof.max_pool_size is None else min(entry.pool_size, prof.max_pool_size)
+
     def _pose_pool(
-        self, dataset: str, entry: DatasetConfig, splits: SplitSizes, pool_size: int | None
+        self, dataset: str, poses: str, entry_splits: SplitSizes | None, splits: SplitSizes, pool_size: int | None
     ) -> tuple[int, SplitSizes]:
         """Pool size and split sizes of a dataset of given poses.
 
         The pool is every pose (profiles do not cap it) and train/test are the
-        poses' own partition; only the dictionary size comes from the profile,
-        the entry or the defaults.
+        poses' own partition (:data:`POSE_SET_SPLITS`); only the dictionary size
+        comes from the profile, the entry (``entry_splits``) or the defaults.
         """
-        from synthcal.generate.worldcup import pose_partition  # late import: heavy, and imports config
-
         key = f"{self.path}: datasets.{dataset}"
         if pool_size is not None:
-            raise ConfigError(f"{key}: --n: the poses {entry.poses!r} fix the pool size (value {pool_size})")
-        partition = pose_partition(entry.poses)
-        fixed = {name: len(index) for name, index in partition.items()}
-        if entry.splits is not None:
-            for name in sorted(entry.splits.model_fields_set & set(fixed)):
-                value = getattr(entry.splits, name)
+            raise ConfigError(f"{key}: pool_size: the poses {poses!r} fix the pool size (value {pool_size})")
+        fixed = dict(POSE_SET_SPLITS[poses])
+        if entry_splits is not None:
+            for name in sorted(entry_splits.model_fields_set & set(fixed)):
+                value = getattr(entry_splits, name)
                 if value != fixed[name]:
                     raise ConfigError(
-                        f"{key}.splits.{name}: the poses {entry.poses!r} fix {name} at {fixed[name]} (value {value})"
+                        f"{key}.splits.{name}: the poses {poses!r} fix {name} at {fixed[name]} (value {value})"
                     )
         return sum(fixed.values()), splits.model_copy(update=fixed)
 
 
 def _check_references(path: Path, config: Config) -> None:
-    from synthcal.generate.scenes import BUILTIN_SCENES
-
+    """Every name a dataset or ``mixed_dictionaries`` refers to exists (in file order)."""
     for name, entry in config.datasets.items():
-        for source in entry.dictionary_from or ():
-            if source not in config.datasets or source == name:
-                raise ConfigError(
-                    f"{path}: datasets.{name}.dictionary_from: {source!r} must be another dataset; "
-                    f"known: {', '.join(config.datasets)}"
-                )
-        if entry.dictionary_from and name in config.mixed_dictionaries:
+        _check_dataset_references(path, config, name, entry)
+    _check_mixed_dictionaries(path, config)
+
+
+def _check_dataset_references(path: Path, config: Config, name: str, entry: DatasetConfig) -> None:
+    """One dataset's ``dictionary_from``, ``scene`` and ``grid`` name things that exist."""
+    for source in entry.dictionary_from or ():
+        if source not in config.datasets or source == name:
             raise ConfigError(
-                f"{path}: mixed_dictionaries.{name}: the dataset already takes its dictionary from "
-                f"datasets.{name}.dictionary_from (value {list(config.mixed_dictionaries[name])})"
+                f"{path}: datasets.{name}.dictionary_from: {source!r} must be another dataset; "
+                f"known: {', '.join(config.datasets)}"
             )
-        if entry.poses == "worldcup2014" and entry.scene != "soccer":
-            raise ConfigError(
-                f"{path}: datasets.{name}.scene: the poses 'worldcup2014' are World Cup broadcast cameras "
-                f"over the 'soccer' scene (value {entry.scene!r})"
-            )
-        if entry.grid is not None and entry.grid not in config.grids:
-            raise ConfigError(
-                f"{path}: datasets.{name}.grid: unknown grid {entry.grid!r}; known: {', '.join(config.grids)}"
-            )
-        if entry.scene not in config.scenes and entry.scene not in BUILTIN_SCENES:
-            known = ", ".join([*BUILTIN_SCENES, *config.scenes])
-            raise ConfigError(f"{path}: datasets.{name}.scene: unknown scene {entry.scene!r}; known: {known}")
+    if entry.dictionary_from and name in config.mixed_dictionaries:
+        raise ConfigError(
+            f"{path}: mixed_dictionaries.{name}: the dataset already takes its dictionary from "
+            f"datasets.{name}.dictionary_from (value {list(config.mixed_dictionaries[name])})"
+        )
+    if entry.poses == "worldcup2014" and entry.scene != "soccer":
+        raise ConfigError(
+            f"{path}: datasets.{name}.scene: the poses 'worldcup2014' are World Cup broadcast cameras "
+            f"over the 'soccer' scene (value {entry.scene!r})"
+        )
+    if entry.grid is not None and entry.grid not in config.grids:
+        raise ConfigError(
+            f"{path}: datasets.{name}.grid: unknown grid {entry.grid!r}; known: {', '.join(config.grids)}"
+        )
+    if entry.scene not in config.scenes and entry.scene not in BUILTIN_SCENE_NAMES:
+        known = ", ".join([*BUILTIN_SCENE_NAMES, *config.scenes])
+        raise ConfigError(f"{path}: datasets.{name}.scene: unknown scene {entry.scene!r}; known: {known}")
+
+
+def _check_mixed_dictionaries(path: Path, config: Config) -> None:
+    """Each ``mixed_dictionaries`` target and its sources are distinct, other datasets."""
     for target, sources in config.mixed_dictionaries.items():
         if target not in config.datasets:
             raise ConfigError(

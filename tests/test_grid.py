@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from synthcal.config import AxisRange, GridConfig, load_config
-from synthcal.generate.grid import axis_values, grid_axes, grid_size, sample_cameras
+from synthcal.generate.grid import grid_axes, sample_cameras
 
 ROOT_CONFIG = "datasets.yaml"
 
@@ -17,14 +17,14 @@ def grids():
 
 
 def test_paper_grid_sizes(grids):
-    assert grid_size(grids["soccer"]) == 5712
-    assert grid_size(grids["intersection"]) == 871200
+    assert grids["soccer"].size() == 5712
+    assert grids["intersection"].size() == 871200
 
 
 def test_full_circle_pan_drops_its_upper_end(grids):
-    pan = axis_values(grids["intersection"].pan_deg, "pan_deg")
+    pan = grids["intersection"].pan_deg.values("pan_deg")
     assert len(pan) == 24 and pan[0] == -180 and pan[-1] == 165
-    tilt = axis_values(grids["intersection"].tilt_deg, "tilt_deg")
+    tilt = grids["intersection"].tilt_deg.values("tilt_deg")
     np.testing.assert_array_equal(tilt, [-20, -15, -10, -5, 0])
 
 

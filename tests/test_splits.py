@@ -6,12 +6,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from synthcal.cli import main
+from synthcal.cli import main, parse_seeds
 from synthcal.config import SplitSizes, load_config
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.splits import draw_indices, draw_mixed, draw_splits, parse_seeds
-from synthcal.store.splits import SPLIT_NAMES, SplitError, drawn_seeds, read_mixed_dictionary, read_split_indices, resolve_mixed_dictionary
+from synthcal.generate.splits import draw_indices, draw_mixed, draw_splits
 from synthcal.store import open_store, read_samples
+from synthcal.store.splits import (
+    SPLIT_NAMES,
+    SplitError,
+    drawn_seeds,
+    read_mixed_dictionary,
+    read_split_indices,
+    resolve_mixed_dictionary,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 INTERSECTIONS = [f"intersection-{k}" for k in range(1, 6)]
@@ -24,10 +31,9 @@ def config():
 
 
 @pytest.fixture(scope="module")
-def stores(config, tmp_path_factory) -> dict[str, Path]:
+def stores(smoke_stores, tmp_path_factory) -> dict[str, Path]:
     """The five intersections at smoke size, with their splits drawn."""
-    out = tmp_path_factory.mktemp("splits")
-    paths = {name: generate_dataset(config.resolve(name, "smoke"), out, progress=False) for name in INTERSECTIONS}
+    paths = smoke_stores.copy(INTERSECTIONS, tmp_path_factory.mktemp("splits"))
     for path in paths.values():
         draw_splits(path)
     return paths

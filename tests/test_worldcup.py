@@ -11,11 +11,9 @@ from synthcal.cli import main
 from synthcal.config import ConfigError, load_config
 from synthcal.data import load_split
 from synthcal.generate.camera import homography
-from synthcal.generate.pipeline import generate_dataset, load_scene
+from synthcal.generate.pipeline import load_scene
 from synthcal.generate.scenes import soccer
 from synthcal.generate.splits import draw_splits
-from synthcal.store.splits import SplitError, read_split_indices
-from synthcal.store import CAMERA_FIELDS, open_store, read_samples
 from synthcal.generate.worldcup import (
     METRES_PER_YARD,
     bird_eye_to_pitch,
@@ -24,6 +22,8 @@ from synthcal.generate.worldcup import (
     frame_scaling,
     load_worldcup_poses,
 )
+from synthcal.store import CAMERA_FIELDS, open_store, read_samples
+from synthcal.store.splits import SplitError, read_split_indices
 
 ROOT = Path(__file__).resolve().parents[1]
 FRAME_16 = Path(__file__).resolve().parents[2] / "shared/data/wc14/16.jpg"
@@ -56,7 +56,7 @@ def test_conversion_agrees_with_the_pitch_geometry(image_size):
     pixels = np.stack(soccer.pitch_to_pixel(pitch[:, 0], pitch[:, 1]), axis=-1)
     yards = np.c_[pitch[:, 0], 68.0 - pitch[:, 1]] / METRES_PER_YARD
     S = frame_scaling(image_size)
-    for H_yards, H in zip(poses.homographies, converted):
+    for H_yards, H in zip(poses.homographies, converted, strict=True):
         got, depth = project(H, pixels)
         want, _ = project(S @ H_yards, yards)
         np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-6 * image_size[0])
@@ -91,7 +91,8 @@ def test_fitted_cameras_match_the_published_statistics():
     fitted = homography(fields["pan_deg"] + soccer.HEADING_DEG, fields["tilt_deg"], fields["focal_px"],
                         np.c_[fields["x"], fields["y"], fields["z"]], (1280, 720))
     centre = np.array([[639.5, 359.5]])
-    errors = [np.linalg.norm(project(a, project(np.linalg.inv(b), centre)[0])[0] - centre) for a, b in zip(fitted, H)]
+    errors = [np.linalg.norm(project(a, project(np.linalg.inv(b), centre)[0])[0] - centre)
+              for a, b in zip(fitted, H, strict=True)]
     assert np.median(errors) < 10
 
 
@@ -116,11 +117,8 @@ def test_pitch_lines_land_on_frame_16():
 
 
 @pytest.fixture(scope="module")
-def stores(tmp_path_factory) -> dict[str, Path]:
-    config = load_config(ROOT / "datasets.yaml")
-    out = tmp_path_factory.mktemp("worldcup")
-    paths = {name: generate_dataset(config.resolve(name, "smoke"), out, progress=False)
-             for name in ("soccer", "worldcup2014")}
+def stores(smoke_stores, tmp_path_factory) -> dict[str, Path]:
+    paths = smoke_stores.copy(["soccer", "worldcup2014"], tmp_path_factory.mktemp("worldcup"))
     draw_splits(paths["worldcup2014"])
     return paths
 
@@ -164,7 +162,7 @@ def test_dictionary_comes_from_the_soccer_pool(stores):
 def test_paper_dictionary_is_the_whole_soccer_pool(stores, tmp_path):
     import shutil
 
-    for name, path in stores.items():
+    for path in stores.values():
         shutil.copytree(path, tmp_path / path.name)
     store = tmp_path / "worldcup2014.zarr"
     from synthcal.config import SplitSizes
@@ -211,7 +209,7 @@ def test_fixed_split_sizes_in_config(tmp_path):
     with pytest.raises(ConfigError, match=r"datasets.worldcup2014.splits.train: .* fix train at 209 \(value 100\)"):
         load_config(path).resolve("worldcup2014")
     config = load_config(ROOT / "datasets.yaml")
-    with pytest.raises(ConfigError, match="--n: the poses 'worldcup2014' fix the pool size"):
+    with pytest.raises(ConfigError, match="pool_size: the poses 'worldcup2014' fix the pool size"):
         config.resolve("worldcup2014", "smoke", pool_size=10)
     spec = config.resolve("worldcup2014", "smoke")
     assert (spec.pool_size, spec.splits.train, spec.splits.test) == (395, 209, 186)

@@ -2,6 +2,8 @@
 
 A grid is the Cartesian product of six axes (pan, tilt, focal, X, Y, Z), each an
 inclusive range; a pan range spanning 360° drops its upper end (≡ its lower end).
+An axis's values and a grid's size are methods of the configuration types
+(:meth:`~synthcal.config.AxisRange.values`, :meth:`~synthcal.config.GridConfig.size`).
 Grid cameras are numbered in C order over the axes in that order, and that number
 is the sample's ``grid_index`` in the store.
 
@@ -11,7 +13,7 @@ Example
 >>> grid = GridConfig(pan_deg=AxisRange(start=-25, stop=25, step=1),
 ...                   tilt_deg=AxisRange(start=-15, stop=0, step=1),
 ...                   focal_px=AxisRange(start=500, stop=800, step=50))
->>> grid_size(grid)
+>>> grid.size()
 5712
 """
 
@@ -21,53 +23,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synthcal.config import GRID_AXES, AxisRange, GridConfig
+from synthcal.config import GRID_AXES, GridConfig
 
-__all__ = ["axis_values", "grid_axes", "grid_size", "CameraSamples", "sample_cameras"]
-
-
-def axis_values(axis: AxisRange, name: str = "") -> np.ndarray:
-    """The values of one inclusive range.
-
-    Args:
-        axis: ``start..stop`` by ``step``.
-        name: the axis name; a ``pan_deg`` range spanning 360° drops its upper end.
-
-    Returns:
-        (K,) float64 values.
-    """
-    count = int(np.floor((axis.stop - axis.start) / axis.step + 1e-9)) + 1
-    values = axis.start + axis.step * np.arange(count, dtype=np.float64)
-    if name == "pan_deg" and count > 1 and np.isclose(values[-1] - values[0], 360.0):
-        values = values[:-1]
-    return values
+__all__ = ["grid_axes", "CameraSamples", "sample_cameras"]
 
 
 def grid_axes(grid: GridConfig, scene_position: tuple[float, float, float] | None = None) -> list[np.ndarray]:
     """The six axes' values, X/Y/Z from the scene when the grid leaves them out.
+
+    Returns:
+        six (K_i,) float64 arrays in :data:`~synthcal.config.GRID_AXES` order.
 
     Raises:
         ValueError: the grid has no X/Y/Z and the scene no camera position.
     """
     axes = []
     for i, name in enumerate(GRID_AXES):
-        axis = getattr(grid, name)
+        axis = grid.axis(name)
         if axis is None:
             if scene_position is None:
                 raise ValueError(f"grid axis {name!r} is not given and the scene has no camera_position")
             axes.append(np.array([float(scene_position[i - 3])]))
         else:
-            axes.append(axis_values(axis, name))
+            axes.append(axis.values(name))
     return axes
-
-
-def grid_size(grid: GridConfig) -> int:
-    """Number of cameras in the grid (a missing X/Y/Z axis counts as one value)."""
-    size = 1
-    for name in GRID_AXES:
-        axis = getattr(grid, name)
-        size *= 1 if axis is None else len(axis_values(axis, name))
-    return size
 
 
 @dataclass(frozen=True)
@@ -86,7 +65,7 @@ class CameraSamples:
     def __len__(self) -> int:
         return len(self.grid_index)
 
-    def __getitem__(self, index: slice) -> "CameraSamples":
+    def __getitem__(self, index: slice) -> CameraSamples:
         return CameraSamples(self.grid_index[index], self.values[index])
 
 
@@ -112,7 +91,7 @@ def sample_cameras(
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
     grid_index = rng.choice(size, size=count, replace=False).astype(np.int64)
     positions = np.unravel_index(grid_index, shape)
-    values = np.stack([axis[pos] for axis, pos in zip(axes, positions)], axis=-1)
+    values = np.stack([axis[pos] for axis, pos in zip(axes, positions, strict=True)], axis=-1)
     if grid.jitter:
         values = _jitter(grid, axes, values, rng)
     return CameraSamples(grid_index=grid_index, values=values)
@@ -125,8 +104,8 @@ def _jitter(grid: GridConfig, axes: list[np.ndarray], values: np.ndarray, rng: n
     wraps instead and is not clipped.
     """
     low, high = values.copy(), values.copy()
-    for i, (name, axis_vals) in enumerate(zip(GRID_AXES, axes)):
-        axis = getattr(grid, name)
+    for i, (name, axis_vals) in enumerate(zip(GRID_AXES, axes, strict=True)):
+        axis = grid.axis(name)
         if axis is None or len(axis_vals) < 2:
             continue
         low[:, i] -= axis.step / 2

@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import os
 import shutil
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import cast
 
 import cv2
 import numpy as np
@@ -33,10 +33,16 @@ from synthcal.generate.camera import homography as camera_homography
 from synthcal.generate.grid import CameraSamples, sample_cameras
 from synthcal.generate.render import Appearance, apply_appearance_on_ground, render_image, render_semantic
 from synthcal.generate.scenes import Scene, build_scene, load_user_scene
-from synthcal.store.shards import ShardLayout
 from synthcal.store import (
-    CAMERA_FIELDS, FORMAT_VERSION, create_store, image_layouts, software_versions, write_samples,
+    CAMERA_FIELDS,
+    FORMAT_VERSION,
+    create_store,
+    image_layouts,
+    software_versions,
+    write_samples,
 )
+from synthcal.store.shards import ShardLayout
+from synthcal.utils.dispatch import dispatch
 
 __all__ = ["load_scene", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset", "store_path"]
 
@@ -99,6 +105,8 @@ def plan_cameras(spec: DatasetSpec, scene: Scene) -> tuple[dict[str, np.ndarray]
         from synthcal.generate.worldcup import plan_poses
 
         return plan_poses(spec, scene)
+    if spec.grid is None:  # DatasetConfig gives exactly one of grid: and poses:
+        raise ConfigError(f"dataset {spec.name!r}: neither grid nor poses")
     cameras = sample_cameras(spec.grid, spec.pool_size, spec.seed, scene.camera_position)
     camera = {name: cameras.values[:, i] for i, name in enumerate(CAMERA_FIELDS)}
     camera["grid_index"] = cameras.grid_index
@@ -196,9 +204,9 @@ def _prepare_partial(spec: DatasetSpec, scene: Scene, partial: Path, progress: P
         if group.attrs.get("config_hash") != spec.config_hash():
             raise ConfigError(
                 f"{partial}: an unfinished store made with a different configuration "
-                f"(config_hash {group.attrs.get('config_hash')!r}); delete it or choose another --out"
+                f"(config_hash {group.attrs.get('config_hash')!r}); delete it or choose another output folder"
             )
-        return group["homography"][:]
+        return np.asarray(cast(zarr.Array, group["homography"])[:])
     camera, homographies = plan_cameras(spec, scene)
     # Build the skeleton under a scratch name so a crash here leaves nothing to resume from.
     scratch = partial.with_name(partial.name + ".creating")
@@ -212,25 +220,12 @@ def _prepare_partial(spec: DatasetSpec, scene: Scene, partial: Path, progress: P
 
 
 def _execute(tasks: list[ShardTask], workers: int, scheduler: str | None) -> Iterator[int]:
-    """Run shard tasks in-process, on a process pool or on a Dask cluster."""
-    if scheduler is not None:
-        from dask.distributed import Client, as_completed as dask_completed
-
-        with Client(scheduler) as client:
-            for future in dask_completed(client.map(run_shard, tasks, pure=False)):
-                yield future.result()
-    elif workers <= 1:
-        previous = cv2.getNumThreads()
-        try:
-            yield from map(run_shard, tasks)
-        finally:
-            cv2.setNumThreads(previous)
-    else:
-        import multiprocessing
-
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            for future in as_completed([pool.submit(run_shard, task) for task in tasks]):
-                yield future.result()
+    """Run shard tasks in-process, on a process pool or on a Dask cluster; yields sample counts."""
+    previous = cv2.getNumThreads()
+    try:
+        yield from dispatch(run_shard, tasks, workers, scheduler)
+    finally:
+        cv2.setNumThreads(previous)  # run_shard sets one thread; undo it where it ran in this process
 
 
 def generate_dataset(
@@ -266,7 +261,8 @@ def generate_dataset(
     if final.exists():
         group = zarr.open_group(zarr.storage.LocalStore(final, read_only=True), mode="r", zarr_format=3)
         if group.attrs.get("config_hash") != spec.config_hash():
-            raise ConfigError(f"{final}: exists and was made with a different configuration; delete it or choose another --out")
+            raise ConfigError(f"{final}: exists and was made with a different configuration; "
+                              "delete it or choose another output folder")
         return final
     partial = final.with_name(final.name + ".partial")
     progress_dir = out_dir / f".{final.name}.progress"

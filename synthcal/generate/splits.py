@@ -46,21 +46,27 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Any, cast
 
 import numpy as np
 import zarr
 
 from synthcal.config import SplitSizes
 from synthcal.store.format import open_store
-from synthcal.store.splits import (LAYOUT_VERSION, SPLIT_NAMES, SplitError, open_source, source_store_path,
-                                   store_spec)
+from synthcal.store.splits import (
+    LAYOUT_VERSION,
+    SPLIT_NAMES,
+    SplitError,
+    open_source,
+    source_store_path,
+    store_spec,
+)
 
 __all__ = [
     "DrawResult",
-    "parse_seeds",
     "split_sizes",
     "draw_indices",
     "draw_mixed",
@@ -70,34 +76,15 @@ __all__ = [
 _HOMOGRAPHY_FRAME = "source: each template's homography maps its source scene's bird's-eye frame to the image"
 
 
-def parse_seeds(text: str) -> tuple[int, ...]:
-    """``"0-4"``, ``"0,2,7"`` or ``"3"`` → sorted distinct seeds.
-
-    Raises:
-        SplitError: not such a list, or a negative seed.
-    """
-    seeds: set[int] = set()
-    try:
-        for part in text.split(","):
-            first, _, last = part.strip().partition("-")
-            low, high = int(first), int(last or first)
-            if high < low:
-                raise ValueError
-            seeds.update(range(low, high + 1))
-    except ValueError:
-        raise SplitError(f"--seeds: expected e.g. 0-4 or 0,2,5 with seeds ≥ 0 (value {text!r})") from None
-    return tuple(sorted(seeds))
-
-
 def split_sizes(base: SplitSizes, **overrides: int) -> SplitSizes:
-    """``base`` with some sizes replaced (e.g. from ``--train N``), each ≥ 1.
+    """``base`` with some sizes replaced (``train=``, ``test=``, ``dictionary=``), each ≥ 1.
 
     Raises:
-        SplitError: a size below 1.
+        SplitError: an unknown split or a size below 1 (named ``splits.<name>``).
     """
     for name, value in overrides.items():
         if name not in SPLIT_NAMES or value < 1:
-            raise SplitError(f"--{name}: a split size must be an integer ≥ 1 (value {value!r})")
+            raise SplitError(f"splits.{name}: a split size must be an integer ≥ 1 (value {value!r})")
     return SplitSizes(**{**base.model_dump(), **overrides})
 
 
@@ -135,14 +122,15 @@ def draw_indices(
     if sum(counts) > available:
         held = f"N = {pool_size}" if not len(taken) else \
             f"only {available} outside the fixed {'/'.join(fixed)} sets (N = {pool_size})"
-        raise ValueError(f"{' + '.join(f'{n} {c}' for n, c in zip(drawn_names, counts))} = {sum(counts)} "
+        raise ValueError(f"{' + '.join(f'{n} {c}' for n, c in zip(drawn_names, counts, strict=True))} = {sum(counts)} "
                          f"samples asked for, but the pool holds {held}")
     rng = np.random.default_rng(np.random.SeedSequence(pool_seed, spawn_key=(2, split_seed)))
     chosen = rng.choice(available, size=sum(counts), replace=False).astype(np.int64)
     if free is not None:
         chosen = free[chosen]
     out = {name: np.sort(np.asarray(fixed[name], np.int64)) for name in names if name in fixed}
-    for name, part in zip(drawn_names, np.split(chosen, np.cumsum(counts)[:-1])):
+    # not strict: with nothing to draw (fixed train/test, no own dictionary) np.split still gives one empty part
+    for name, part in zip(drawn_names, np.split(chosen, np.cumsum(counts)[:-1]), strict=False):
         out[name] = np.sort(part)
     return {name: out[name] for name in names}
 
@@ -168,7 +156,7 @@ def draw_mixed(
     shares = [count // n + (k < count % n) for k in range(n)]
     rng = np.random.default_rng(np.random.SeedSequence(pool_seed, spawn_key=(3, split_seed)))
     sources, indices = [], []
-    for k, (share, size) in enumerate(zip(shares, source_sizes)):
+    for k, (share, size) in enumerate(zip(shares, source_sizes, strict=True)):
         if share > size:
             raise ValueError(f"source {k}: its share {share} of the {count} templates exceeds its pool of N = {size}")
         indices.append(np.sort(rng.choice(size, size=share, replace=False)).astype(np.int64))
@@ -195,7 +183,7 @@ class DrawResult:
 
 def _fixed_sets(group: zarr.Group) -> dict[str, np.ndarray]:
     """Given train/test sets of a poses dataset (recorded by the pipeline), else {}."""
-    poses = group.attrs.get("poses")
+    poses = cast("dict[str, Any] | None", group.attrs.get("poses"))  # JSON: see worldcup.pose_attributes
     if not poses:
         return {}
     return {name: np.arange(*poses["partition"][name], dtype=np.int64) for name in ("train", "test")}
@@ -234,12 +222,12 @@ def _mixed_plan(
 ) -> tuple[dict[str, str], dict[int, tuple[np.ndarray, np.ndarray]]]:
     """Source hashes and each seed's (source, index) arrays."""
     groups = [open_source(store, attrs, name) for name in sources]
-    sizes = [g.attrs["N"] for g in groups]
-    hashes = {name: g.attrs["config_hash"] for name, g in zip(sources, groups)}
+    sizes = [cast(int, g.attrs["N"]) for g in groups]
+    hashes = {name: cast(str, g.attrs["config_hash"]) for name, g in zip(sources, groups, strict=True)}
     try:
         drawn = {seed: draw_mixed(sizes, count, pool_seed, seed) for seed in seeds}
     except ValueError as exc:
-        detail = ", ".join(f"{name} N = {size}" for name, size in zip(sources, sizes))
+        detail = ", ".join(f"{name} N = {size}" for name, size in zip(sources, sizes, strict=True))
         raise SplitError(f"{store}: mixed dictionary of {count} templates from {len(sources)} source(s) "
                          f"({detail}): {exc}") from None
     return hashes, drawn
@@ -276,59 +264,82 @@ def draw_splits(
     seeds = tuple(spec.split_seeds if seeds is None else seeds)
     sizes = sizes or spec.splits
     sources = tuple(spec.mixed_sources if sources is None else sources)
-    attrs = dict(group.attrs)
-    pool_size, pool_seed = attrs["N"], attrs["seed"]
-    if any(not isinstance(s, (int, np.integer)) or s < 0 for s in seeds):
-        raise SplitError(f"{store}: split seeds must be integers ≥ 0 (value {list(seeds)})")
+    attrs: dict[str, Any] = dict(group.attrs)
+    pool_size, pool_seed = cast(int, attrs["N"]), cast(int, attrs["seed"])
     fixed = _fixed_sets(group)
-    for name, index in fixed.items():
-        if getattr(sizes, name) != len(index):
-            raise SplitError(f"{store}: splits.{name}: the poses fix {name} at {len(index)} samples "
-                             f"(value {getattr(sizes, name)})")
+    _check_request(store, seeds, sizes, fixed)
     try:
         sets = {seed: draw_indices(pool_size, sizes, pool_seed, seed, fixed, spec.own_dictionary) for seed in seeds}
     except ValueError as exc:
         raise SplitError(f"{store}: splits {sizes.train}/{sizes.test}/{sizes.dictionary} (train/test/dictionary) "
                          f"do not fit: {exc}") from None
-    note = None
-    mixed_arrays: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    hashes: dict[str, str] = {}
-    if sources and mixed is not False:
-        missing = [str(source_store_path(store, s)) for s in sources if not source_store_path(store, s).exists()]
-        if missing and mixed is None:
-            note = (f"{store}: mixed dictionary not drawn: source store(s) {', '.join(missing)} missing; "
-                    f"generate them, then run `synthcal split {store}`")
-        else:
-            hashes, mixed_arrays = _mixed_plan(store, attrs, sources, sizes.dictionary, pool_seed, seeds)
-    elif mixed and not sources:
-        raise SplitError(f"{store}: dataset {attrs['dataset']!r} has no mixed-dictionary sources "
-                         f"(mixed_dictionaries / dictionary_from in datasets.yaml)")
+    note, hashes, mixed_arrays = _plan_mixed(store, attrs, sources, mixed, sizes.dictionary, seeds)
 
     _ensure_splits_group(store)
     drawn, unchanged = [], []
     for seed in seeds:
+        has_mixed = seed in mixed_arrays
         recipe = {
             "seed": int(seed), "pool_seed": pool_seed, "pool_config_hash": attrs["config_hash"], "N": pool_size,
             "sizes": {name: len(index) for name, index in sets[seed].items()},
-            "fixed": sorted(fixed), "mixed_sources": list(sources) if seed in mixed_arrays else [],
-            "mixed_source_config_hash": hashes if seed in mixed_arrays else {},
-            "mixed_size": len(mixed_arrays[seed][1]) if seed in mixed_arrays else 0,
+            "fixed": sorted(fixed), "mixed_sources": list(sources) if has_mixed else [],
+            "mixed_source_config_hash": hashes if has_mixed else {},
+            "mixed_size": len(mixed_arrays[seed][1]) if has_mixed else 0,
         }
         if _recorded_recipe(store, seed) == recipe:
             unchanged.append(seed)
             continue
-        mixed_part = None
-        if seed in mixed_arrays:
-            mixed_attrs = {
-                "sources": list(sources),
-                "stores": [f"../{source}.zarr" for source in sources],
-                "source_config_hash": hashes,
-                "homography_frame": _HOMOGRAPHY_FRAME,
-            }
-            mixed_part = (*mixed_arrays[seed], mixed_attrs)
+        mixed_part = (*mixed_arrays[seed], _mixed_attrs(sources, hashes)) if has_mixed else None
         _write_seed(store, seed, recipe, sets[seed], mixed_part)
         drawn.append(seed)
     return DrawResult(store, tuple(drawn), tuple(unchanged), note)
+
+
+def _check_request(store: Path, seeds: Sequence[int], sizes: SplitSizes, fixed: dict[str, np.ndarray]) -> None:
+    """Seeds are integers ≥ 0 and the sizes keep a poses dataset's fixed train/test sets."""
+    if any(not isinstance(s, (int, np.integer)) or s < 0 for s in seeds):
+        raise SplitError(f"{store}: split seeds must be integers ≥ 0 (value {list(seeds)})")
+    for name, index in fixed.items():
+        if getattr(sizes, name) != len(index):
+            raise SplitError(f"{store}: splits.{name}: the poses fix {name} at {len(index)} samples "
+                             f"(value {getattr(sizes, name)})")
+
+
+def _plan_mixed(
+    store: Path, attrs: dict[str, Any], sources: tuple[str, ...], mixed: bool | None, count: int,
+    seeds: Sequence[int],
+) -> tuple[str | None, dict[str, str], dict[int, tuple[np.ndarray, np.ndarray]]]:
+    """Whether and what mixed dictionary to draw (see :func:`draw_splits`'s ``mixed``).
+
+    Returns:
+        a note when it is left out for missing source stores (else None), the
+        sources' config hashes and each seed's (source, index) arrays (both empty
+        when none is drawn).
+
+    Raises:
+        SplitError: required but without sources, or a source store unusable.
+    """
+    if sources and mixed is not False:
+        missing = [str(source_store_path(store, s)) for s in sources if not source_store_path(store, s).exists()]
+        if missing and mixed is None:
+            return (f"{store}: mixed dictionary not drawn: source store(s) {', '.join(missing)} missing; "
+                    f"generate them, then run `synthcal split {store}`"), {}, {}
+        hashes, arrays = _mixed_plan(store, attrs, sources, count, cast(int, attrs["seed"]), seeds)
+        return None, hashes, arrays
+    if mixed and not sources:
+        raise SplitError(f"{store}: dataset {attrs['dataset']!r} has no mixed-dictionary sources "
+                         f"(mixed_dictionaries / dictionary_from in datasets.yaml)")
+    return None, {}, {}
+
+
+def _mixed_attrs(sources: tuple[str, ...], hashes: dict[str, str]) -> dict[str, Any]:
+    """Attributes of a seed's ``mixed_dictionary`` group."""
+    return {
+        "sources": list(sources),
+        "stores": [f"../{source}.zarr" for source in sources],
+        "source_config_hash": hashes,
+        "homography_frame": _HOMOGRAPHY_FRAME,
+    }
 
 
 def _recorded_recipe(store: Path, seed: int) -> dict | None:

@@ -46,10 +46,9 @@ import numpy as np
 import scipy.io
 from scipy.optimize import least_squares
 
-from synthcal.config import ConfigError, DatasetSpec, GridConfig
+from synthcal.config import POSE_SET_SPLITS, ConfigError, DatasetSpec, GridConfig
 from synthcal.generate.camera import decompose_homography, intrinsics, orient_homography
-from synthcal.generate.scenes import Scene
-from synthcal.generate.scenes import soccer
+from synthcal.generate.scenes import Scene, soccer
 from synthcal.store import CAMERA_FIELDS
 
 __all__ = [
@@ -112,9 +111,16 @@ def load_worldcup_poses() -> WorldCupPoses:
 
 
 def _poses(name: str) -> WorldCupPoses:
+    """The pose set ``name``, checked against the sizes configuration validates with."""
     if name != "worldcup2014":
         raise ConfigError(f"poses: unknown pose set {name!r}; known: worldcup2014")
-    return load_worldcup_poses()
+    poses = load_worldcup_poses()
+    sizes = {part: stop - start for part, (start, stop) in poses.partition.items()}
+    if sizes != POSE_SET_SPLITS[name]:
+        # config.py cannot read the annotations (it imports nothing of synthcal), so it records the sizes
+        raise ValueError(f"{data_dir()}: the {name} annotations hold {sizes} poses, "
+                         f"but synthcal.config.POSE_SET_SPLITS records {POSE_SET_SPLITS[name]}")
+    return poses
 
 
 def pose_partition(name: str) -> dict[str, np.ndarray]:
@@ -242,20 +248,49 @@ def fit_cameras(
         if fallback is not None:
             (x, y, z), focal = fallback
             starts.append([init["pan_deg"][k], init["tilt_deg"][k], 0.0, np.log(focal), x, y, z])
-        best = None
-        for start in starts:
-            start = np.clip(np.nan_to_num(np.asarray(start, np.float64)), low + 1e-6, high - 1e-6)
-            fit = least_squares(lambda p: (_project(p, ground, centre) - target).ravel(), start,
-                                x_scale=np.array([1, 1, 1, 0.1, 10, 10, 10.0]), bounds=(low, high))
-            rms = float(np.sqrt(np.mean(fit.fun ** 2)))
-            if best is None or rms < best[1]:
-                best = (fit.x, rms)
-            if rms < 0.01 * width:
-                break
-        out[k, :7], out[k, 7] = best
+        out[k, :7], out[k, 7] = _best_fit(starts, ground, target, centre, (low, high), 0.01 * width)
     out[:, 3] = np.exp(out[:, 3])
     names = ("pan_deg", "tilt_deg", "roll_deg", "focal_px", "x", "y", "z", "rms_px")
     return {name: out[:, i] for i, name in enumerate(names)}
+
+
+def _best_fit(
+    starts: list[list[float]],
+    ground: np.ndarray,
+    target: np.ndarray,
+    centre: tuple[float, float],
+    bounds: tuple[np.ndarray, np.ndarray],
+    good_rms: float,
+) -> tuple[np.ndarray, float]:
+    """The best reprojection fit of one camera over its starts.
+
+    Args:
+        starts: the start parameters (as in :func:`_project`), tried in order
+            until one ends below ``good_rms``.
+        ground: (2, P) bird's-eye points; ``target``: (2, P) their pixels.
+        centre: the principal point.
+        bounds: (7,) lower and upper parameter bounds.
+
+    Returns:
+        (7,) parameters and their RMS reprojection error in pixels.
+    """
+    low, high = bounds
+
+    def residuals(params: np.ndarray) -> np.ndarray:
+        return (_project(params, ground, centre) - target).ravel()
+
+    best: tuple[np.ndarray, float] | None = None
+    for start in starts:
+        x0 = np.clip(np.nan_to_num(np.asarray(start, np.float64)), low + 1e-6, high - 1e-6)
+        fit = least_squares(residuals, x0, x_scale=np.array([1, 1, 1, 0.1, 10, 10, 10.0]), bounds=(low, high))
+        rms = float(np.sqrt(np.mean(fit.fun ** 2)))
+        if best is None or rms < best[1]:
+            best = (fit.x, rms)
+        if rms < good_rms:
+            break
+    if best is None:
+        raise ValueError("fit_cameras: no start parameters")
+    return best
 
 
 def camera_fields(
@@ -287,6 +322,8 @@ def plan_poses(spec: DatasetSpec, scene: Scene) -> tuple[dict[str, np.ndarray], 
         camera fields (``CAMERA_FIELDS`` (N,) float64, ``grid_index`` (N,) int64
         all −1) and (N, 3, 3) homographies at ``spec.image_size``.
     """
+    if spec.poses is None:
+        raise ValueError(f"dataset {spec.name!r} has a grid, not given poses")
     H = convert_homographies(_poses(spec.poses).homographies, spec.image_size)
     fitted = camera_fields(H, scene, spec.image_size, spec.focal_reference_width)
     # roll and the fit's residual are not store fields: the homography is the ground truth

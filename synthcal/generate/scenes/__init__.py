@@ -13,11 +13,14 @@ Example
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
+
+from synthcal.config import BUILTIN_SCENE_NAMES
 
 from .base import NUM_CLASSES, Scene, SceneError, colorize, draw_scene, freeze
 from .intersection import CLASSES as INTERSECTION_CLASSES
-from .intersection import LAYOUTS, PALETTE as INTERSECTION_PALETTE, PPM, build_intersection
+from .intersection import LAYOUTS, PPM, build_intersection
+from .intersection import PALETTE as INTERSECTION_PALETTE
 from .soccer import build_soccer
 from .user import load_user_scene
 
@@ -28,9 +31,13 @@ BUILTIN_SCENES: dict[str, str] = {
     **{name: layout.description for name, layout in LAYOUTS.items()},
     "soccer": "FIFA pitch 105 x 68 m from the World Cup 2014 line model; camera 45 m behind the touchline, 17 m up",
 }
+if tuple(BUILTIN_SCENES) != BUILTIN_SCENE_NAMES:
+    # config.py validates ``scene:`` against its own copy of the names (it imports nothing of synthcal)
+    raise ImportError(f"synthcal.config.BUILTIN_SCENE_NAMES {BUILTIN_SCENE_NAMES} differs from the built-in "
+                      f"scenes {tuple(BUILTIN_SCENES)}")
 
 
-@lru_cache(maxsize=None)
+@cache
 def build_scene(name: str) -> Scene:
     """A built-in scene, built once per process.
 

@@ -14,8 +14,8 @@ Example
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import cv2
 import numpy as np
@@ -96,7 +96,7 @@ def _legend(scene: Scene, width: int) -> np.ndarray:
             f"{scene.pixels_per_metre:g} px/m)"
     cv2.putText(strip, title, (int(10 * scale), int(row * 0.7)), font, 0.8 * scale, (0, 0, 0), thick, cv2.LINE_AA)
     x = int(10 * scale)
-    for class_id, (name, colour) in enumerate(zip(scene.classes, scene.palette)):
+    for class_id, (name, colour) in enumerate(zip(scene.classes, scene.palette, strict=True)):
         y0 = row + int(row * 0.15)
         cv2.rectangle(strip, (x, y0), (x + int(row * 0.7), y0 + int(row * 0.7)), tuple(int(c) for c in colour), -1)
         cv2.rectangle(strip, (x, y0), (x + int(row * 0.7), y0 + int(row * 0.7)), (0, 0, 0), 1)

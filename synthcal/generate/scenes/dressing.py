@@ -13,8 +13,8 @@ machine.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import cv2
 import numpy as np
@@ -75,9 +75,9 @@ def shade(rgb: np.ndarray, mask: np.ndarray, strength: int) -> None:
     rgb[...] = ((rgb.astype(np.uint32) * factor[..., None]) >> 8).astype(np.uint8)
 
 
-def fill_rgb(rgb: np.ndarray, points: Sequence[Point], colour: Sequence[int]) -> None:
-    """Anti-aliased polygon on the RGB (or a uint8 mask)."""
-    value = tuple(int(v) for v in colour) if len(np.shape(colour)) else int(colour)
+def fill_rgb(rgb: np.ndarray, points: Sequence[Point], colour: Sequence[int] | np.ndarray | int) -> None:
+    """Anti-aliased polygon on the RGB (``colour``: (3,) values) or a uint8 mask (a single value)."""
+    value = tuple(int(v) for v in np.ravel(colour)) if np.ndim(colour) else int(np.asarray(colour))
     cv2.fillPoly(rgb, [fixed(points)], value, cv2.LINE_AA, SHIFT)
 
 

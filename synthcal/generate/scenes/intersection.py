@@ -55,10 +55,36 @@ import math
 import cv2
 import numpy as np
 
-from .dressing import (CAR_COLOURS, Car, MaterialLook, Tree, add_grain, base_colours, building_shadow, car_outline,
-                       draw_building, draw_car, draw_tree, fill_rgb, place_buildings, shade)
-from .network import (BikeTrack, Layout, Leg, Material, Network, Roundabout, Side, Slip, lane_centres,
-                      network_markings, paint_network)
+from .dressing import (
+    CAR_COLOURS,
+    Car,
+    MaterialLook,
+    Tree,
+    add_grain,
+    base_colours,
+    building_shadow,
+    car_outline,
+    draw_building,
+    draw_car,
+    draw_tree,
+    fill_rgb,
+    place_buildings,
+    shade,
+)
+from .network import (
+    BikeTrack,
+    Layout,
+    Leg,
+    LegGeometry,
+    Material,
+    Network,
+    Roundabout,
+    Side,
+    Slip,
+    lane_centres,
+    network_markings,
+    paint_network,
+)
 from .roadkit import FAR, SHIFT, Canvas, Point, at, circle, fixed, normal, strip, unit
 
 __all__ = ["CLASSES", "PALETTE", "LAYOUTS", "build_intersection"]
@@ -207,40 +233,58 @@ def _border_distance(c: Point, angle: float, size: tuple[int, int]) -> float:
 
 def _traffic(net: Network, canvas: Canvas, layout: Layout, rng: np.random.Generator) -> list[Car]:
     """Cars on the lanes (queues at the stop lines) and on the roundabout, all on class-1 road."""
-    cars, c = [], net.centre
+    cars: list[Car] = []
     for g in net.legs:
-        end = _border_distance(c, g.angle, layout.size) - 3 * PPM
+        end = _border_distance(net.centre, g.angle, layout.size) - 3 * PPM
         for lat, sign in lane_centres(g):
-            s = g.marks_start + 1.5 * PPM + (0 if sign < 0 else rng.uniform(0, 20) * PPM)
-            queue = int(rng.integers(0, 4)) if sign < 0 else 0
-            while s < end:
-                length = rng.uniform(4.0, 5.0) * PPM if rng.uniform() < 0.9 else 6.5 * PPM
-                if rng.uniform() < 0.5 or queue > 0:
-                    spot = at(c, unit(g.angle), normal(g.angle), s + length / 2, lat + rng.uniform(-0.2, 0.2) * PPM)
-                    cars.append(Car(spot, g.angle + (0.0 if sign > 0 else 180.0), length,
-                                    rng.uniform(1.75, 2.0) * PPM, CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))]))
-                s += length + (rng.uniform(1.5, 2.5) if queue > 0 else rng.uniform(6, 30)) * PPM
-                queue -= 1
-    ring = net.roundabout
-    if ring is not None:
-        width = ring.radius - ring.island - ring.apron
-        for lane in range(ring.lanes):
-            r = (ring.radius - (lane + 0.5) * width / ring.lanes) * PPM
-            for a in rng.uniform(0, 2 * math.pi, int(rng.integers(2, 5))):
-                spot = (c[0] + r * math.cos(a), c[1] + r * math.sin(a))
-                cars.append(Car(spot, math.degrees(a) - 90.0, 4.5 * PPM, 1.85 * PPM,
-                                CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))]))
-    on_road = []
-    for car in cars:  # keep cars wholly on road and not overlapping earlier ones
+            cars += _lane_cars(net.centre, g, lat, sign, end, rng)
+    if net.roundabout is not None:
+        cars += _ring_cars(net.centre, net.roundabout, rng)
+    return _on_road(cars, canvas, layout.size)[: layout.cars]
+
+
+def _lane_cars(c: Point, g: LegGeometry, lat: float, sign: float, end: float, rng: np.random.Generator) -> list[Car]:
+    """Cars along one lane up to ``end`` px: inbound lanes (sign < 0) start with a queue at the stop line."""
+    cars = []
+    s = g.marks_start + 1.5 * PPM + (0 if sign < 0 else rng.uniform(0, 20) * PPM)
+    queue = int(rng.integers(0, 4)) if sign < 0 else 0
+    while s < end:
+        length = rng.uniform(4.0, 5.0) * PPM if rng.uniform() < 0.9 else 6.5 * PPM
+        if rng.uniform() < 0.5 or queue > 0:
+            spot = at(c, unit(g.angle), normal(g.angle), s + length / 2, lat + rng.uniform(-0.2, 0.2) * PPM)
+            cars.append(Car(spot, g.angle + (0.0 if sign > 0 else 180.0), length,
+                            rng.uniform(1.75, 2.0) * PPM, CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))]))
+        s += length + (rng.uniform(1.5, 2.5) if queue > 0 else rng.uniform(6, 30)) * PPM
+        queue -= 1
+    return cars
+
+
+def _ring_cars(c: Point, ring: Roundabout, rng: np.random.Generator) -> list[Car]:
+    """Two to four cars on each lane of a roundabout's carriageway."""
+    cars = []
+    width = ring.radius - ring.island - ring.apron
+    for lane in range(ring.lanes):
+        r = (ring.radius - (lane + 0.5) * width / ring.lanes) * PPM
+        for a in rng.uniform(0, 2 * math.pi, int(rng.integers(2, 5))):
+            spot = (c[0] + r * math.cos(a), c[1] + r * math.sin(a))
+            cars.append(Car(spot, math.degrees(a) - 90.0, 4.5 * PPM, 1.85 * PPM,
+                            CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))]))
+    return cars
+
+
+def _on_road(cars: list[Car], canvas: Canvas, size: tuple[int, int]) -> list[Car]:
+    """The cars wholly on road (class 1) and not overlapping an earlier one, in order."""
+    on_road: list[Car] = []
+    for car in cars:
         pts = np.round(np.asarray(car_outline(car) + [car.centre])).astype(int)
-        inside = (pts[:, 0] >= 0) & (pts[:, 0] < layout.size[0]) & (pts[:, 1] >= 0) & (pts[:, 1] < layout.size[1])
+        inside = (pts[:, 0] >= 0) & (pts[:, 0] < size[0]) & (pts[:, 1] >= 0) & (pts[:, 1] < size[1])
         if not inside.all() or np.any(canvas.semantic[pts[:, 1], pts[:, 0]] != 1):
             continue
         if any(math.hypot(car.centre[0] - o.centre[0], car.centre[1] - o.centre[1]) < 0.55 * (car.length + o.length)
                for o in on_road):
             continue
         on_road.append(car)
-    return on_road[: layout.cars]
+    return on_road
 
 
 def _trees(net: Network, canvas: Canvas, layout: Layout, rng: np.random.Generator) -> list[Tree]:

@@ -140,7 +140,9 @@ def _geometry(leg: Leg, ppm: float) -> LegGeometry:
     return LegGeometry(leg, leg.angle % 360.0, half, median, leg.lane_width * ppm, offsets)
 
 
-def _corner(c: Point, gi: LegGeometry, gj: LegGeometry, di: float, dj: float, r: float):
+def _corner(
+    c: Point, gi: LegGeometry, gj: LegGeometry, di: float, dj: float, r: float
+) -> tuple[Point, Point, Point, Point, float, float] | None:
     """Fillet of radius ``r`` between leg i's line at right offset ``di`` and leg j's at left ``dj``.
 
     Returns (Q, O, T_i, T_j, s_i, t_j): the corner, the circle centre, the tangent
@@ -180,6 +182,9 @@ def _hull(c: Point, geoms: list[LegGeometry], layer: int | None) -> list[Point]:
 def paint_network(canvas: Canvas, layout: Layout, ppm: float) -> Network:
     """Paint the roads, verges, bicycle paths, pavements and islands of ``layout``.
 
+    Layers go outermost first (see ``roadkit``): pavement and verges, bicycle-path
+    bands, roads with their corners, then islands.
+
     Args:
         canvas: class + material maps, already holding the corner sectors.
         layout: the junction.
@@ -188,20 +193,35 @@ def paint_network(canvas: Canvas, layout: Layout, ppm: float) -> Network:
     Returns:
         The painted geometry (pixels), for markings, cars and trees.
     """
-    c = layout.centre
     geoms = sorted((_geometry(leg, ppm) for leg in layout.legs), key=lambda g: g.angle)
-    ring = layout.roundabout
-    R = {}
+    R = _ring_radii(layout.roundabout, ppm)
+    _paint_sides(canvas, layout, geoms, R, ppm)
+    _paint_bike_bands(canvas, layout, geoms, R, ppm)
+    network = Network(layout.centre, ppm, geoms, layout.roundabout)
+    islands = _paint_roads(canvas, layout, network, R)
+    _paint_islands(canvas, network, islands, R)
+    for g in geoms:
+        g.clear = max(g.clear, g.half_width)
+    return network
+
+
+def _ring_radii(ring: Roundabout | None, ppm: float) -> dict[str, float]:
+    """Outer radii (px) of the roundabout's road, verge, bicycle and pavement rings; {} without one."""
+    R: dict[str, float] = {}
     if ring is not None:
         R["road"] = ring.radius * ppm
         R["verge"] = R["road"] + ring.verge * ppm
         R["bike"] = R["verge"] + ring.bike * ppm
         R["walk"] = R["bike"] + ring.walk * ppm
+    return R
 
-    # 1. pavement, 2. verges (nested strips, mitred by overpainting)
+
+def _paint_sides(canvas: Canvas, layout: Layout, geoms: list[LegGeometry], R: dict[str, float], ppm: float) -> None:
+    """1. pavement, 2. verges (nested strips, mitred by overpainting); lone bicycle paths get grass verges."""
+    c = layout.centre
     for layer, cls, mat in ((2, 0, Material.SIDEWALK), (0, 2, Material.GRASS)):
         name = "walk" if layer == 2 else "verge"
-        if ring is not None:
+        if layout.roundabout is not None:
             canvas.disc(c, R[name], cls, mat)
         for g in geoms:
             canvas.polygon(strip(c, g.angle, -g.offsets["left"][layer], g.offsets["right"][layer]), cls, mat)
@@ -211,7 +231,12 @@ def paint_network(canvas: Canvas, layout: Layout, ppm: float) -> Network:
                 half = (t.width / 2 + t.verge) * ppm
                 canvas.polygon(strip(c, t.angle, -half, half, _track_start(c, t, geoms, R, ppm)), 2, Material.GRASS)
 
-    # 3. bicycle-path bands (run on across the neighbour's verge up to its kerb)
+
+def _paint_bike_bands(
+    canvas: Canvas, layout: Layout, geoms: list[LegGeometry], R: dict[str, float], ppm: float
+) -> None:
+    """3. bicycle-path bands (run on across the neighbour's verge up to its kerb)."""
+    c, ring = layout.centre, layout.roundabout
     if ring is not None and ring.bike > 0:
         canvas.annulus(c, R["verge"], R["bike"], 3, Material.BIKE)
     for g in geoms:
@@ -222,59 +247,91 @@ def paint_network(canvas: Canvas, layout: Layout, ppm: float) -> Network:
                 if ring is not None:  # start inside the cycle ring, not across the ring's verge
                     mid_r, mid_d = (R["verge"] + R["bike"]) / 2, (verge + bike) / 2
                     s0 = math.sqrt(max(mid_r ** 2 - mid_d ** 2, 0.0))
-                canvas.polygon(strip(c, g.angle, *sorted((sign * verge, sign * bike)), s0), 3, Material.BIKE)
+                l0, l1 = sorted((sign * verge, sign * bike))
+                canvas.polygon(strip(c, g.angle, l0, l1, s0), 3, Material.BIKE)
     for t in layout.bike_tracks:
         half = t.width / 2 * ppm
         canvas.polygon(strip(c, t.angle, -half, half, _track_start(c, t, geoms, R, ppm)), 3, Material.BIKE)
 
-    # 4. roads, with rounded kerbs or slip lanes at the corners
-    network = Network(c, ppm, geoms, ring)
+
+def _paint_roads(
+    canvas: Canvas, layout: Layout, network: Network, R: dict[str, float]
+) -> list[tuple[list[Point], str]]:
+    """4. roads, with rounded kerbs or slip lanes at the corners.
+
+    Sets each leg's ``clear`` and the network's ``slip_lanes``.
+
+    Returns:
+        The slip islands to paint, as (polygon, island kind).
+    """
+    c, ppm, geoms = network.centre, network.ppm, network.legs
     for g in geoms:
         canvas.polygon(strip(c, g.angle, -g.half_width, g.half_width), 1, Material.ASPHALT)
     canvas.polygon(_hull(c, geoms, None), 1, Material.ASPHALT)
-    slips = {s.corner % len(geoms): s for s in layout.slips}
-    islands = []
-    if ring is not None:
+    if layout.roundabout is not None:
         canvas.disc(c, R["road"], 1, Material.ASPHALT)
         for g in geoms:
             g.clear = math.sqrt(max(R["road"] ** 2 - g.half_width ** 2, 0.0)) + 0.5 * ppm
-    else:
-        for i, gi in enumerate(geoms):
-            gj = geoms[(i + 1) % len(geoms)]
-            slip = slips.get(i)
-            r = (slip.radius if slip else layout.kerb_radius) * ppm
-            corner = _corner(c, gi, gj, gi.half_width, gj.half_width, r)
-            if corner is None:
-                continue
-            Q, O, Ti, Tj, si, tj = corner
-            canvas.polygon(_fillet(Q, O, Ti, Tj, r), 1, Material.ASPHALT)
-            gi.clear, gj.clear = max(gi.clear, si), max(gj.clear, tj)
-            if slip:
-                islands.append(_slip_island(c, gi, gj, O, r, slip, ppm))
-                network.slip_lanes.append((O, r + slip.lane * ppm / 2,
-                                           math.atan2(Ti[1] - O[1], Ti[0] - O[0]),
-                                           math.atan2(Tj[1] - O[1], Tj[0] - O[0])))
+        return []
+    slips = {s.corner % len(geoms): s for s in layout.slips}
+    islands = []
+    for i, gi in enumerate(geoms):
+        island = _paint_corner(canvas, layout, network, gi, geoms[(i + 1) % len(geoms)], slips.get(i))
+        if island is not None:
+            islands.append(island)
+    return islands
 
-    # 5. islands: medians and splitters, slip islands, the roundabout's island
-    for g in geoms:
+
+def _paint_corner(
+    canvas: Canvas, layout: Layout, network: Network, gi: LegGeometry, gj: LegGeometry, slip: Slip | None
+) -> tuple[list[Point], str] | None:
+    """The rounded kerb (or slip lane) between leg ``gi`` and the next leg clockwise ``gj``.
+
+    Returns:
+        The slip island to paint later, or None.
+    """
+    c, ppm = network.centre, network.ppm
+    r = (slip.radius if slip else layout.kerb_radius) * ppm
+    corner = _corner(c, gi, gj, gi.half_width, gj.half_width, r)
+    if corner is None:
+        return None
+    Q, O, Ti, Tj, si, tj = corner
+    canvas.polygon(_fillet(Q, O, Ti, Tj, r), 1, Material.ASPHALT)
+    gi.clear, gj.clear = max(gi.clear, si), max(gj.clear, tj)
+    if not slip:
+        return None
+    network.slip_lanes.append((O, r + slip.lane * ppm / 2,
+                               math.atan2(Ti[1] - O[1], Ti[0] - O[0]),
+                               math.atan2(Tj[1] - O[1], Tj[0] - O[0])))
+    return _slip_island(c, gi, gj, O, r, slip, ppm)
+
+
+def _paint_islands(
+    canvas: Canvas, network: Network, islands: list[tuple[list[Point], str]], R: dict[str, float]
+) -> None:
+    """5. islands: medians and splitters, slip islands, the roundabout's island."""
+    c, ppm, ring = network.centre, network.ppm, network.roundabout
+    for g in network.legs:
         if g.median > 0:
             start = (R["road"] + 0.5 * ppm) if ring is not None else max(g.clear - 2 * ppm, g.half_width)
-            length = FAR if g.leg.median_length is None else g.leg.median_length * ppm
-            narrow = g.median if g.leg.median_length is None else 0.35 * g.median
-            cls, mat = (2, Material.GRASS) if g.median >= 1.6 * ppm else (0, Material.CONCRETE)
-            e, n = unit(g.angle), normal(g.angle)
-            canvas.polygon([at(c, e, n, start, -g.median / 2), at(c, e, n, start + length, -narrow / 2),
-                            at(c, e, n, start + length, narrow / 2), at(c, e, n, start, g.median / 2)], cls, mat)
-            canvas.disc(at(c, e, n, start, 0), g.median / 2, cls, mat)
-            canvas.disc(at(c, e, n, start + length, 0), narrow / 2, cls, mat)
+            _paint_median(canvas, c, g, start, ppm)
     for points, kind in islands:
         canvas.polygon(points, *((2, Material.GRASS) if kind == "grass" else (0, Material.CONCRETE)))
     if ring is not None:
         canvas.disc(c, (ring.island + ring.apron) * ppm, 0, Material.COBBLES)
         canvas.disc(c, ring.island * ppm, 2, Material.GRASS)
-    for g in geoms:
-        g.clear = max(g.clear, g.half_width)
-    return network
+
+
+def _paint_median(canvas: Canvas, c: Point, g: LegGeometry, start: float, ppm: float) -> None:
+    """A leg's median (or splitter, narrowing to 35 %) from ``start`` px, with rounded ends."""
+    length = FAR if g.leg.median_length is None else g.leg.median_length * ppm
+    narrow = g.median if g.leg.median_length is None else 0.35 * g.median
+    cls, mat = (2, Material.GRASS) if g.median >= 1.6 * ppm else (0, Material.CONCRETE)
+    e, n = unit(g.angle), normal(g.angle)
+    canvas.polygon([at(c, e, n, start, -g.median / 2), at(c, e, n, start + length, -narrow / 2),
+                    at(c, e, n, start + length, narrow / 2), at(c, e, n, start, g.median / 2)], cls, mat)
+    canvas.disc(at(c, e, n, start, 0), g.median / 2, cls, mat)
+    canvas.disc(at(c, e, n, start + length, 0), narrow / 2, cls, mat)
 
 
 def _track_start(c: Point, t: BikeTrack, geoms: list[LegGeometry], R: dict, ppm: float) -> float:
@@ -295,13 +352,17 @@ def _track_start(c: Point, t: BikeTrack, geoms: list[LegGeometry], R: dict, ppm:
     return max(hits) if hits else max(max(g.offsets["left"][1], g.offsets["right"][1]) for g in geoms) * 1.2
 
 
-def _slip_island(c: Point, gi: LegGeometry, gj: LegGeometry, O: Point, r: float, slip: Slip, ppm: float):
-    """Curved-triangle island between the slip lane and the two main roads."""
+def _slip_island(
+    c: Point, gi: LegGeometry, gj: LegGeometry, O: Point, r: float, slip: Slip, ppm: float
+) -> tuple[list[Point], str]:
+    """Curved-triangle island between the slip lane and the two main roads, and its kind."""
     gap_px = 1.0 * ppm
     outer = r + slip.lane * ppm
     ei, ni, ej, nj = unit(gi.angle), normal(gi.angle), unit(gj.angle), normal(gj.angle)
     p0 = line_intersection(at(c, ei, ni, 0, gi.half_width + gap_px), ei, at(c, ej, nj, 0, -gj.half_width - gap_px), ej)
     s_o = line_intersection(at(c, ei, ni, 0, gi.half_width + r), ei, at(c, ej, nj, 0, -gj.half_width - r), ej)
+    if p0 is None or s_o is None:  # _corner found these legs' corner, so their lines do meet
+        raise ValueError(f"slip lane at corner {slip.corner}: the legs at {gi.angle}° and {gj.angle}° are parallel")
     along = math.sqrt(max(outer ** 2 - (r - gap_px) ** 2, 0.0))
     P0 = at(c, ei, ni, p0[0], gi.half_width + gap_px)
     P1 = at(c, ei, ni, s_o[0] - along, gi.half_width + gap_px)
@@ -314,64 +375,97 @@ def _slip_island(c: Point, gi: LegGeometry, gj: LegGeometry, O: Point, r: float,
 def network_markings(net: Network) -> tuple[list[list[Point]], list[list[Point]]]:
     """White road markings as polygons (pixels), RGB only.
 
+    Sets each leg's ``marks_start``.
+
     Returns:
         ``(white, teeth)``: zebra stripes, stop lines, lane and centre lines, bike
         path centre lines; and give-way triangles at roundabout entries.
     """
-    c, ppm, ring = net.centre, net.ppm, net.roundabout
+    ppm, ring = net.ppm, net.roundabout
     white: list[list[Point]] = []
     teeth: list[list[Point]] = []
-    thin = 0.15 * ppm
     for g in net.legs:
-        e, n = unit(g.angle), normal(g.angle)
         if ring is not None:
             zebra0 = (ring.radius + ring.verge + ring.bike) * ppm + 1.0 * ppm
-            z = g.clear + 0.3 * ppm  # give-way triangles across the entry (left = inbound)
-            lat = -g.median / 2 - 0.3 * ppm
-            while lat - 0.5 * ppm > -g.half_width:
-                teeth.append([at(c, e, n, z, lat), at(c, e, n, z, lat - 0.5 * ppm), at(c, e, n, z + 0.6 * ppm,
-                                                                                        lat - 0.25 * ppm)])
-                lat -= 0.8 * ppm
+            teeth += _give_way_teeth(net, g)
         else:
             zebra0 = g.clear + 1.0 * ppm
-        # zebra: 0.5 m stripes every metre along the road, sparing the median
-        lat = -g.half_width + 0.5 * ppm
-        while lat + 0.5 * ppm < g.half_width - 0.25 * ppm:
-            if g.median == 0 or abs(lat + 0.25 * ppm) > g.median / 2 + 0.3 * ppm:
-                white.append(strip(c, g.angle, lat, lat + 0.5 * ppm, zebra0, zebra0 + 4 * ppm))
-            lat += 1.0 * ppm
-        stop = zebra0 + 5 * ppm
-        if ring is None:
-            inbound = (-g.half_width + 0.2 * ppm, -g.median / 2 - 0.1 * ppm)
-            white.append(strip(c, g.angle, *inbound, stop, stop + 0.4 * ppm))
-        g.marks_start = stop + 0.4 * ppm
-        s0 = g.marks_start
-        if g.median == 0:
-            if g.leg.lanes == 1:
-                white += dashes(c, g.angle, 0, s0 + 1 * ppm, FAR, 3 * ppm, 6 * ppm, thin)
-            else:
-                white.append(strip(c, g.angle, -thin, thin, s0, FAR))
-        for sign in (-1.0, 1.0):
-            for k in range(1, g.leg.lanes):
-                lat = sign * (g.median / 2 + k * g.lane)
-                white += dashes(c, g.angle, lat, s0 + 1 * ppm, FAR, 3 * ppm, 9 * ppm, thin)
-            if g.leg.lanes > 1:
-                lat = sign * (g.half_width - 0.35 * ppm)
-                white.append(strip(c, g.angle, lat - thin / 2, lat + thin / 2, s0, FAR))
-        for name, sign in (("left", -1.0), ("right", 1.0)):
-            verge, bike, _ = g.offsets[name]
-            if bike - verge >= 2.4 * ppm:  # two-way bicycle path: dashed centre line
-                lat = sign * (verge + bike) / 2
-                white += dashes(c, g.angle, lat, zebra0 + 6 * ppm, FAR, 1 * ppm, 1 * ppm, 0.1 * ppm)
-    if ring is not None and ring.lanes > 1:  # dashed lane divider on the circulating carriageway
-        r = (ring.radius - (ring.radius - ring.island - ring.apron) / 2) * ppm
-        count = int(2 * math.pi * r / (4 * ppm))
-        for k in range(count):
-            a0 = 2 * math.pi * k / count
-            inner = arc(c, r - thin, a0, a0 + 0.5 * 2 * math.pi / count, 2.0)
-            outer = arc(c, r + thin, a0, a0 + 0.5 * 2 * math.pi / count, 2.0)
-            white.append(inner + outer[::-1])
+        white += _leg_markings(net, g, zebra0)
+    if ring is not None and ring.lanes > 1:
+        white += _ring_lane_divider(net.centre, ring, ppm)
     return white, teeth
+
+
+def _give_way_teeth(net: Network, g: LegGeometry) -> list[list[Point]]:
+    """Give-way triangles across a roundabout entry (left = inbound)."""
+    c, ppm = net.centre, net.ppm
+    e, n = unit(g.angle), normal(g.angle)
+    teeth = []
+    z = g.clear + 0.3 * ppm
+    lat = -g.median / 2 - 0.3 * ppm
+    while lat - 0.5 * ppm > -g.half_width:
+        teeth.append([at(c, e, n, z, lat), at(c, e, n, z, lat - 0.5 * ppm), at(c, e, n, z + 0.6 * ppm,
+                                                                                lat - 0.25 * ppm)])
+        lat -= 0.8 * ppm
+    return teeth
+
+
+def _leg_markings(net: Network, g: LegGeometry, zebra0: float) -> list[list[Point]]:
+    """One leg's zebra from ``zebra0`` px, stop line, centre and lane lines, bicycle-path centre lines."""
+    c, ppm = net.centre, net.ppm
+    thin = 0.15 * ppm
+    white = []
+    # zebra: 0.5 m stripes every metre along the road, sparing the median
+    lat = -g.half_width + 0.5 * ppm
+    while lat + 0.5 * ppm < g.half_width - 0.25 * ppm:
+        if g.median == 0 or abs(lat + 0.25 * ppm) > g.median / 2 + 0.3 * ppm:
+            white.append(strip(c, g.angle, lat, lat + 0.5 * ppm, zebra0, zebra0 + 4 * ppm))
+        lat += 1.0 * ppm
+    stop = zebra0 + 5 * ppm
+    if net.roundabout is None:
+        inbound = (-g.half_width + 0.2 * ppm, -g.median / 2 - 0.1 * ppm)
+        white.append(strip(c, g.angle, *inbound, stop, stop + 0.4 * ppm))
+    g.marks_start = stop + 0.4 * ppm
+    white += _lane_lines(c, g, ppm, thin)
+    for name, sign in (("left", -1.0), ("right", 1.0)):
+        verge, bike, _ = g.offsets[name]
+        if bike - verge >= 2.4 * ppm:  # two-way bicycle path: dashed centre line
+            lat = sign * (verge + bike) / 2
+            white += dashes(c, g.angle, lat, zebra0 + 6 * ppm, FAR, 1 * ppm, 1 * ppm, 0.1 * ppm)
+    return white
+
+
+def _lane_lines(c: Point, g: LegGeometry, ppm: float, thin: float) -> list[list[Point]]:
+    """Centre line (without a median), lane dividers and edge lines of a leg from ``marks_start``."""
+    white = []
+    s0 = g.marks_start
+    if g.median == 0:
+        if g.leg.lanes == 1:
+            white += dashes(c, g.angle, 0, s0 + 1 * ppm, FAR, 3 * ppm, 6 * ppm, thin)
+        else:
+            white.append(strip(c, g.angle, -thin, thin, s0, FAR))
+    for sign in (-1.0, 1.0):
+        for k in range(1, g.leg.lanes):
+            lat = sign * (g.median / 2 + k * g.lane)
+            white += dashes(c, g.angle, lat, s0 + 1 * ppm, FAR, 3 * ppm, 9 * ppm, thin)
+        if g.leg.lanes > 1:
+            lat = sign * (g.half_width - 0.35 * ppm)
+            white.append(strip(c, g.angle, lat - thin / 2, lat + thin / 2, s0, FAR))
+    return white
+
+
+def _ring_lane_divider(c: Point, ring: Roundabout, ppm: float) -> list[list[Point]]:
+    """Dashed lane divider on a roundabout's circulating carriageway."""
+    thin = 0.15 * ppm
+    r = (ring.radius - (ring.radius - ring.island - ring.apron) / 2) * ppm
+    count = int(2 * math.pi * r / (4 * ppm))
+    white = []
+    for k in range(count):
+        a0 = 2 * math.pi * k / count
+        inner = arc(c, r - thin, a0, a0 + 0.5 * 2 * math.pi / count, 2.0)
+        outer = arc(c, r + thin, a0, a0 + 0.5 * 2 * math.pi / count, 2.0)
+        white.append(inner + outer[::-1])
+    return white
 
 
 def lane_centres(g: LegGeometry) -> list[tuple[float, float]]:

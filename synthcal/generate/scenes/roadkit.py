@@ -22,7 +22,7 @@ kernels, so the rasterised vertices are the same on every machine.
 from __future__ import annotations
 
 import math
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import cv2
 import numpy as np

@@ -229,5 +229,5 @@ def _players(rng: np.random.Generator) -> list[tuple[tuple[float, float], tuple[
     kits = [(200, 30, 40)] * 11 + [(235, 235, 240)] * 11 + [(30, 30, 30)]
     xs = rng.uniform(5, PITCH_LENGTH_M - 5, len(kits))
     ys = rng.uniform(3, PITCH_WIDTH_M - 3, len(kits))
-    return [(_px(float(x), float(y)), kit) for x, y, kit in zip(xs, ys, kits)]
+    return [(_px(float(x), float(y)), kit) for x, y, kit in zip(xs, ys, kits, strict=True)]
 

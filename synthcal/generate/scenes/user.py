@@ -25,8 +25,8 @@ Example
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import cv2
 import numpy as np
@@ -54,14 +54,15 @@ def _first(mask: np.ndarray) -> tuple[int, int]:
 
 
 def _check_palette(name: str, palette: Mapping[int, Sequence[int]]) -> dict[int, tuple[int, int, int]]:
-    checked = {}
+    checked: dict[int, tuple[int, int, int]] = {}
     for class_id, colour in palette.items():
         if not isinstance(class_id, (int, np.integer)) or not 0 <= int(class_id) < NUM_CLASSES:
             raise SceneError(f"scene {name!r}: palette: class id {class_id!r} is not one of 0..{NUM_CLASSES - 1}")
         values = tuple(colour)
         if len(values) != 3 or any(not isinstance(c, (int, np.integer)) or not 0 <= int(c) <= 255 for c in values):
             raise SceneError(f"scene {name!r}: palette: colour {colour!r} of class {class_id} is not 3 integers 0..255")
-        checked[int(class_id)] = tuple(int(c) for c in values)
+        r, g, b = (int(c) for c in values)
+        checked[int(class_id)] = (r, g, b)
     owners: dict[tuple[int, int, int], int] = {}
     for class_id, colour in checked.items():
         if colour in owners:
@@ -129,15 +130,7 @@ def load_user_scene(
     """
     image_path, semantic_path = Path(image_path), Path(semantic_path)
     checked = _check_palette(name, palette) if palette is not None else None
-    names = DEFAULT_CLASSES if classes is None else tuple(str(c) for c in classes)
-    if len(names) != NUM_CLASSES:
-        raise SceneError(f"scene {name!r}: classes: {list(names)} must name exactly {NUM_CLASSES} classes")
-    if camera_position is not None:
-        position = tuple(float(v) for v in camera_position)
-        if len(position) != 3 or not position[2] > 0:
-            raise SceneError(f"scene {name!r}: camera_position: {tuple(camera_position)} must be (X, Y, Z) with Z > 0")
-    if not pixels_per_metre > 0:
-        raise SceneError(f"scene {name!r}: pixels_per_metre: {pixels_per_metre} must be positive")
+    names, position = _check_settings(name, classes, camera_position, pixels_per_metre)
 
     bgr = _read(name, "image", image_path, cv2.IMREAD_COLOR)
     rgb = np.ascontiguousarray(bgr[..., ::-1])
@@ -145,28 +138,52 @@ def load_user_scene(
     if raw.shape[:2] != rgb.shape[:2]:
         raise SceneError(f"scene {name!r}: semantic: {semantic_path} is {raw.shape[1]} × {raw.shape[0]} px but "
                          f"image {image_path} is {rgb.shape[1]} × {rgb.shape[0]} px; they must match")
-    if raw.ndim == 3:
-        raw = raw[..., :3][..., ::-1]  # BGR(A) → RGB
-        if checked is None:
-            if not (np.array_equal(raw[..., 0], raw[..., 1]) and np.array_equal(raw[..., 0], raw[..., 2])):
-                row, col = _first(~((raw[..., 0] == raw[..., 1]) & (raw[..., 0] == raw[..., 2])))
-                raise SceneError(f"scene {name!r}: semantic: {semantic_path} is a colour image (e.g. "
-                                 f"{tuple(int(c) for c in raw[row, col])} at row {row}, column {col}) but no "
-                                 f"palette maps its colours to classes")
-            semantic = _ids(name, semantic_path, raw[..., 0])
-        else:
-            semantic = _from_colours(name, semantic_path, raw, checked)
-    else:
-        if checked is not None:
-            # a palette over a grey map: grey levels are looked up as (v, v, v)
-            semantic = _from_colours(name, semantic_path, np.repeat(raw[..., None], 3, -1), checked)
-        else:
-            semantic = _ids(name, semantic_path, raw)
+    semantic = _semantic_ids(name, semantic_path, raw, checked)
 
-    display = [tuple(c) for c in DEFAULT_PALETTE]
+    display: list[tuple[int, int, int]] = list(DEFAULT_PALETTE)
     for class_id, colour in (checked or {}).items():
         display[class_id] = colour
     return Scene(name, freeze(rgb), freeze(semantic), names, tuple(display), heading_deg=float(heading_deg),
-                 camera_position=None if camera_position is None else position,
-                 pixels_per_metre=float(pixels_per_metre),
+                 camera_position=position, pixels_per_metre=float(pixels_per_metre),
                  description=f"user scene: {image_path.name} + {semantic_path.name}")
+
+
+def _check_settings(
+    name: str, classes: Sequence[str] | None, camera_position: Sequence[float] | None, pixels_per_metre: float
+) -> tuple[tuple[str, ...], tuple[float, float, float] | None]:
+    """The class names (default :data:`DEFAULT_CLASSES`) and the camera position, checked."""
+    names = DEFAULT_CLASSES if classes is None else tuple(str(c) for c in classes)
+    if len(names) != NUM_CLASSES:
+        raise SceneError(f"scene {name!r}: classes: {list(names)} must name exactly {NUM_CLASSES} classes")
+    position = None
+    if camera_position is not None:
+        values = tuple(float(v) for v in camera_position)
+        if len(values) != 3 or not values[2] > 0:
+            raise SceneError(f"scene {name!r}: camera_position: {tuple(camera_position)} must be (X, Y, Z) with Z > 0")
+        position = (values[0], values[1], values[2])
+    if not pixels_per_metre > 0:
+        raise SceneError(f"scene {name!r}: pixels_per_metre: {pixels_per_metre} must be positive")
+    return names, position
+
+
+def _semantic_ids(
+    name: str, path: Path, raw: np.ndarray, palette: dict[int, tuple[int, int, int]] | None
+) -> np.ndarray:
+    """(H, W) uint8 class ids from the semantic file's (H, W) or (H, W, 3|4) BGR(A) array.
+
+    A colour map needs a palette, unless it is grey (then its level is the id); a
+    grey map with a palette is looked up as colours (v, v, v).
+    """
+    if raw.ndim != 3:
+        if palette is not None:
+            return _from_colours(name, path, np.repeat(raw[..., None], 3, -1), palette)
+        return _ids(name, path, raw)
+    raw = raw[..., :3][..., ::-1]  # BGR(A) → RGB
+    if palette is not None:
+        return _from_colours(name, path, raw, palette)
+    if not (np.array_equal(raw[..., 0], raw[..., 1]) and np.array_equal(raw[..., 0], raw[..., 2])):
+        row, col = _first(~((raw[..., 0] == raw[..., 1]) & (raw[..., 0] == raw[..., 2])))
+        raise SceneError(f"scene {name!r}: semantic: {path} is a colour image (e.g. "
+                         f"{tuple(int(c) for c in raw[row, col])} at row {row}, column {col}) but no "
+                         f"palette maps its colours to classes")
+    return _ids(name, path, raw[..., 0])

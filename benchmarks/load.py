@@ -27,8 +27,8 @@ from synthcal.config import SplitSizes, load_config
 from synthcal.data import load_split
 from synthcal.generate.pipeline import generate_dataset
 from synthcal.generate.splits import draw_splits
-from synthcal.store.splits import read_split_indices
 from synthcal.store import open_store, read_samples
+from synthcal.store.splits import read_split_indices
 
 ROOT = Path(__file__).resolve().parents[1]
 SPLIT = 4500
@@ -86,7 +86,8 @@ def run(scratch: Path, args: argparse.Namespace) -> None:
         for name in ("image", "semantic", "homography"):
             np.load(npy / f"{name}.npy")
 
-    numpy_load(), load_split(store, "train", 0)  # warm the page cache for both
+    numpy_load()  # warm the page cache for both
+    load_split(store, "train", 0)
     t_numpy = best_of(args.repeat, numpy_load)
     t_split = best_of(args.repeat, lambda: load_split(store, "train", 0))
     size = sum((npy / f"{n}.npy").stat().st_size for n in ("image", "semantic", "homography"))

@@ -8,23 +8,19 @@ import pytest
 import torch
 from torch.utils.data import DataLoader
 
-from synthcal.config import load_config
 from synthcal.data import SplitDataset, load_split, load_splits, read_scene
-from synthcal.generate.pipeline import generate_dataset
 from synthcal.generate.splits import draw_splits
-from synthcal.store.splits import SplitError, read_split_indices
 from synthcal.store import open_store, read_samples
+from synthcal.store.splits import SplitError, read_split_indices
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def stores(tmp_path_factory) -> dict[str, Path]:
+def stores(smoke_stores, tmp_path_factory) -> dict[str, Path]:
     """intersection-4 (a mixed-dictionary target) and its four sources, smoke size."""
-    config = load_config(ROOT / "datasets.yaml")
-    out = tmp_path_factory.mktemp("data")
     names = [f"intersection-{k}" for k in range(1, 6)]
-    paths = {name: generate_dataset(config.resolve(name, "smoke"), out, progress=False) for name in names}
+    paths = smoke_stores.copy(names, tmp_path_factory.mktemp("data"))
     draw_splits(paths["intersection-4"], seeds=[0, 1])
     return paths
 
@@ -110,12 +106,12 @@ def test_read_scene_missing_store(tmp_path):
 
 
 def test_shard_reader_agrees_with_zarr(stores):
-    from synthcal.store.shards import fast_path, read_rows
+    from synthcal.store.shards import read_rows, shard_layout
 
     group = open_store(stores["intersection-2"])
     index = np.random.default_rng(0).integers(0, 48, 40)  # unsorted, with repeats
     for name in ("image", "semantic", "homography"):
-        assert fast_path(group[name]) is not None
+        shard_layout(group[name])  # the store's layout: the shard reader takes it
         np.testing.assert_array_equal(read_rows(group[name], index), group[name].get_orthogonal_selection((index,)))
     assert read_rows(group["image"], np.zeros(0, np.int64)).shape == (0, 36, 64, 3)
     with pytest.raises(IndexError, match="0..47"):
@@ -126,7 +122,7 @@ def test_shard_reader_fill_values_and_other_layouts(tmp_path):
     import zarr
     from zarr.codecs import BloscCodec, ZstdCodec
 
-    from synthcal.store.shards import fast_path, read_rows
+    from synthcal.store.shards import UnsupportedLayout, read_rows, shard_layout
 
     group = zarr.create_group(zarr.storage.LocalStore(tmp_path / "x.zarr"), zarr_format=3)
     sharded = group.create_array("a", shape=(20, 4, 2), chunks=(1, 4, 2), shards=(8, 4, 2), dtype="float64",
@@ -138,7 +134,9 @@ def test_shard_reader_fill_values_and_other_layouts(tmp_path):
     lz4 = group.create_array("c", shape=(20, 4, 2), chunks=(1, 4, 2), shards=(8, 4, 2), dtype="uint8",
                              compressors=BloscCodec(cname="lz4"), fill_value=7)
     lz4[:12] = np.arange(96, dtype=np.uint8).reshape(12, 4, 2)
-    assert fast_path(sharded) is not None and fast_path(lz4) is not None and fast_path(plain) is None
+    assert shard_layout(sharded).fill_value == -1.0 and shard_layout(lz4).fill_value == 7
+    with pytest.raises(UnsupportedLayout, match=r"x.zarr/b: codecs .*sharding_indexed"):  # unsharded: Zarr reads it
+        shard_layout(plain)
     index = np.array([19, 3, 9, 10, 0, 3])
     for array in (sharded, plain, lz4):
         np.testing.assert_array_equal(read_rows(array, index), array.get_orthogonal_selection((index,)))

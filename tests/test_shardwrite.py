@@ -3,12 +3,11 @@
 from pathlib import Path
 
 import numpy as np
-import zarr
 import pytest
+import zarr
 from zarr.codecs import BloscCodec, ZstdCodec
 
-from synthcal.store.shards import read_rows
-from synthcal.store.shards import shard_layout, write_shard
+from synthcal.store.shards import read_rows, shard_layout, write_shard
 
 
 def make_array(root: Path, name: str, shape, dtype, shard_size: int, compressor=None) -> zarr.Array:
@@ -53,3 +52,31 @@ def test_rewrite_replaces_the_file_whole(tmp_path):
     write_shard(shard_layout(array), 1, values[4:] * 2)
     np.testing.assert_array_equal(array[4:], values[4:] * 2)
     assert [p.name for p in (tmp_path / "a" / "c" / "1").iterdir()] == ["0"]  # no temporary left behind
+
+
+def test_fill_value_chunks_are_left_out_as_zarr_does(tmp_path):
+    values = np.full((6, 4, 2), 7, dtype=np.uint8)
+    values[1] = np.arange(8, dtype=np.uint8).reshape(4, 2)  # the only chunk unlike the fill value 7
+    group = {}
+    for name in ("ours", "zarr"):
+        root = zarr.open_group(zarr.storage.LocalStore(tmp_path / name), mode="a", zarr_format=3)
+        group[name] = root.create_array("a", shape=values.shape, chunks=(1, 4, 2), shards=(3, 4, 2), dtype="uint8",
+                                        compressors=BloscCodec(cname="lz4"), fill_value=7)
+    group["zarr"][:] = values
+    for shard in range(2):
+        write_shard(shard_layout(group["ours"]), shard, values[3 * shard:3 * shard + 3])
+    assert files(tmp_path / "ours") == files(tmp_path / "zarr")
+    assert not (tmp_path / "ours" / "a" / "c" / "1").exists()
+
+
+def test_unsupported_layouts_are_refused_naming_array_and_codec(tmp_path):
+    from zarr.codecs import GzipCodec
+
+    from synthcal.store.shards import UnsupportedLayout
+
+    gzip = make_array(tmp_path, "gz", (4, 3), "uint8", 2, GzipCodec())
+    with pytest.raises(UnsupportedLayout, match=r"gz: inner codecs \['bytes', 'gzip'\]"):
+        shard_layout(gzip)
+    layout = shard_layout(make_array(tmp_path, "ok", (4, 3), "uint8", 2))
+    with pytest.raises(ValueError, match=r"ok: shard 0: samples \(2, 4\) uint8 do not fit"):
+        write_shard(layout, 0, np.ones((2, 4), np.uint8))

@@ -1,14 +1,15 @@
 """Splits of a store as PyTorch datasets (SPEC §6, §9).
 
 >>> train = load_split("out/intersection-1.zarr", "train", seed=0)   # doctest: +SKIP
->>> image, semantic, H = train[0]
+>>> image, semantic, H = train[0]                                       # doctest: +SKIP
 >>> image.shape, image.dtype, semantic.dtype, H.shape                  # doctest: +SKIP
 (torch.Size([3, 144, 256]), torch.float32, torch.int64, torch.Size([3, 3]))
 
 A split is read once, shard by shard in sorted index order, decoded straight into
-its arrays (:mod:`synthcal.store.shards`: about 30× faster than zarr-python's
-orthogonal selection, which costs ~1 ms per chunk), and held in memory as NumPy
-arrays, so items cost no I/O and the object pickles for ``DataLoader(num_workers=…)``.
+its arrays (:mod:`synthcal.store.shards`: 50–130× faster than zarr-python's
+orthogonal selection, measured by ``benchmarks/zarr_baseline.py``), and held in
+memory as NumPy arrays, so items cost no I/O and the object pickles for
+``DataLoader(num_workers=…)``.
 
 Items: ``image`` (3, H, W) float32 in [0, 1] (converted per item: the arrays stay
 uint8), ``semantic`` (H, W) int64 class ids, ``homography`` (3, 3) float64 mapping
@@ -32,8 +33,15 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from synthcal.store.splits import SPLIT_NAMES, SplitError, read_mixed_dictionary, read_mixed_samples, read_split_indices, store_spec
-from synthcal.store import open_store, read_samples
+from synthcal.store import array_at, attributes, open_store, read_samples
+from synthcal.store.splits import (
+    SPLIT_NAMES,
+    SplitError,
+    read_mixed_dictionary,
+    read_mixed_samples,
+    read_split_indices,
+    store_spec,
+)
 
 __all__ = ["StoreScene", "SplitDataset", "load_split", "load_splits", "read_scene"]
 
@@ -63,9 +71,10 @@ class StoreScene:
 def read_scene(store: str | Path) -> StoreScene:
     """The scene stored in a store (``scene/image``, ``scene/semantic``, attributes)."""
     group = open_store(store)
-    attrs = group.attrs["scene"]
+    attrs = attributes(group)["scene"]
     return StoreScene(
-        name=attrs["name"], image=group["scene/image"][:], semantic=group["scene/semantic"][:],
+        name=str(attrs["name"]), image=np.asarray(array_at(group, "scene/image")[:]),
+        semantic=np.asarray(array_at(group, "scene/semantic")[:]),
         palette=np.asarray(attrs["palette"], np.uint8), classes=tuple(attrs["classes"]),
         heading_deg=float(attrs["heading_deg"]), pixels_per_metre=float(attrs["pixels_per_metre"]),
     )
@@ -118,7 +127,7 @@ class SplitDataset(Dataset):
     @property
     def source_scenes(self) -> dict[str, StoreScene]:
         """Each source's scene (read on demand): the frame of its templates' homographies."""
-        return {name: read_scene(path) for name, path in zip(self.sources, self.source_stores)}
+        return {name: read_scene(path) for name, path in zip(self.sources, self.source_stores, strict=True)}
 
     def __len__(self) -> int:
         return len(self.indices)

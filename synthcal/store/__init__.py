@@ -6,14 +6,17 @@
 * :mod:`synthcal.store.splits` — reading the per-seed splits a store holds (drawing
   them is generation's job, :mod:`synthcal.generate.splits`).
 
-Imports only :mod:`synthcal.config` of synthcal.
+Imports only :mod:`synthcal.config` and :mod:`synthcal.utils` of synthcal.
 """
 
 from synthcal.store.format import (
     CAMERA_FIELDS,
     FORMAT_VERSION,
     StoreError,
+    array_at,
+    attributes,
     create_store,
+    group_at,
     image_layouts,
     open_store,
     read_samples,
@@ -37,7 +40,10 @@ __all__ = [
     "CAMERA_FIELDS",
     "FORMAT_VERSION",
     "StoreError",
+    "array_at",
+    "attributes",
     "create_store",
+    "group_at",
     "image_layouts",
     "open_store",
     "read_samples",

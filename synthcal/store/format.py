@@ -15,8 +15,9 @@ Group attributes record the format version, the scene, the grid, ``N``, the seed
 the image size, ``focal_reference_width``, software versions and the hash of the
 resolved configuration.
 
-Atomicity: Zarr's local store writes every file under a temporary name and renames
-it, so a shard file is whole or absent. A store is built under ``NAME.zarr.partial``
+Atomicity: every file is written under a temporary name and renamed (by Zarr's
+local store, or by :func:`synthcal.store.shards.write_shard` for the per-sample
+arrays' shards), so a file is whole or absent. A store is built under ``NAME.zarr.partial``
 and renamed to ``NAME.zarr`` only when every shard is in, so a store found under its
 final name is always complete (its ``complete`` attribute says so too).
 """
@@ -32,8 +33,7 @@ import numpy as np
 import zarr
 from zarr.codecs import BloscCodec
 
-from synthcal.store.shards import read_rows
-from synthcal.store.shards import ShardLayout, shard_layout, write_shard
+from synthcal.store.shards import ShardLayout, read_rows, shard_layout, write_shard
 
 __all__ = [
     "FORMAT_VERSION",
@@ -45,6 +45,9 @@ __all__ = [
     "write_samples",
     "open_store",
     "read_samples",
+    "array_at",
+    "group_at",
+    "attributes",
 ]
 
 FORMAT_VERSION = "synthcal-store/1"
@@ -126,10 +129,31 @@ def create_store(
     return group
 
 
+def array_at(group: zarr.Group, key: str) -> zarr.Array:
+    """``group[key]``, which must be an array (Zarr types it as array or group)."""
+    node = group[key]
+    if not isinstance(node, zarr.Array):
+        raise StoreError(f"{group.store_path}/{key}: a group where an array is expected")
+    return node
+
+
+def group_at(group: zarr.Group, key: str) -> zarr.Group:
+    """``group[key]``, which must be a group."""
+    node = group[key]
+    if not isinstance(node, zarr.Group):
+        raise StoreError(f"{group.store_path}/{key}: an array where a group is expected")
+    return node
+
+
+def attributes(node: zarr.Group | zarr.Array) -> dict[str, Any]:
+    """A node's attributes as a plain dict (JSON values: each reader checks what it takes)."""
+    return dict(node.attrs)
+
+
 def image_layouts(path: Path) -> dict[str, ShardLayout]:
     """Shard layouts of the ``image`` and ``semantic`` arrays, for :func:`write_samples`."""
     group = zarr.open_group(zarr.storage.LocalStore(path), mode="r", zarr_format=3)
-    return {name: shard_layout(group[name]) for name in ("image", "semantic")}
+    return {name: shard_layout(array_at(group, name)) for name in ("image", "semantic")}
 
 
 def write_samples(layouts: dict[str, ShardLayout], shard: int, image: np.ndarray, semantic: np.ndarray) -> None:
@@ -166,4 +190,4 @@ def read_samples(group: zarr.Group, index: np.ndarray) -> dict[str, np.ndarray]:
         ``image`` (K, H, W, 3) uint8, ``semantic`` (K, H, W) uint8 and
         ``homography`` (K, 3, 3) float64, in the order of ``index``.
     """
-    return {name: read_rows(group[name], index) for name in ("image", "semantic", "homography")}
+    return {name: read_rows(array_at(group, name), index) for name in ("image", "semantic", "homography")}

@@ -24,7 +24,7 @@ import numpy as np
 import zarr
 
 from synthcal.config import DatasetSpec
-from synthcal.store.format import StoreError, open_store, read_samples
+from synthcal.store.format import StoreError, array_at, attributes, group_at, open_store, read_samples
 
 __all__ = [
     "SPLIT_NAMES",
@@ -69,7 +69,7 @@ def open_source(store: Path, target_attrs: dict, source: str, config_hash: str |
         group = open_store(path)
     except StoreError as exc:
         raise SplitError(f"{store}: mixed-dictionary source {source!r}: {exc}") from None
-    attrs = group.attrs
+    attrs = attributes(group)
     for key in ("image_size",):
         if attrs[key] != target_attrs[key]:
             raise SplitError(f"{store}: mixed-dictionary source {path}: {key} {attrs[key]} differs from the "
@@ -88,7 +88,7 @@ def drawn_seeds(group: zarr.Group) -> tuple[int, ...]:
     """The seeds whose splits a store holds."""
     if "splits" not in group:
         return ()
-    names = [name for name in group["splits"].group_keys() if name.startswith("seed-")]
+    names = [name for name in group_at(group, "splits").group_keys() if name.startswith("seed-")]
     return tuple(sorted(int(name.removeprefix("seed-")) for name in names))
 
 
@@ -98,7 +98,7 @@ def _seed_group(group: zarr.Group, store: Path, seed: int) -> zarr.Group:
         seeds = drawn_seeds(group)
         available = ", ".join(map(str, seeds)) or "none; draw them with `synthcal split STORE`"
         raise SplitError(f"{store}: {key}: no splits drawn for seed {seed!r}; seeds available: {available}")
-    return group[key]
+    return group_at(group, key)
 
 
 def read_split_indices(store: str | Path, split: str, seed: int) -> np.ndarray:
@@ -122,7 +122,7 @@ def read_split_indices(store: str | Path, split: str, seed: int) -> np.ndarray:
     if split not in seed_group:
         raise SplitError(f"{store}: splits/seed-{seed}/{split}: dataset has no own {split} "
                          f"(its dictionary comes from other datasets: load it as the mixed dictionary)")
-    return seed_group[split][:]
+    return np.asarray(array_at(seed_group, split)[:])
 
 
 @dataclass(frozen=True)
@@ -159,11 +159,13 @@ def read_mixed_dictionary(store: str | Path, seed: int) -> MixedDictionary:
         raise SplitError(f"{store}: {key}: no mixed dictionary here (the dataset has no sources, or they were "
                          f"missing when the splits were drawn: generate them beside the store and run "
                          f"`synthcal split {store}`)")
-    sub = seed_group["mixed_dictionary"]
-    sources = tuple(sub.attrs["sources"])
+    sub = group_at(seed_group, "mixed_dictionary")
+    attrs = attributes(sub)
+    sources = tuple(str(source) for source in attrs["sources"])
     return MixedDictionary(
         store=store, sources=sources, stores=tuple(source_store_path(store, s) for s in sources),
-        source_config_hash=dict(sub.attrs["source_config_hash"]), source=sub["source"][:], index=sub["index"][:],
+        source_config_hash=dict(attrs["source_config_hash"]), source=np.asarray(array_at(sub, "source")[:]),
+        index=np.asarray(array_at(sub, "index")[:]),
     )
 
 
@@ -178,7 +180,7 @@ def read_mixed_samples(mixed: MixedDictionary) -> dict[str, np.ndarray]:
     Raises:
         SplitError: a source store missing, incompatible, or regenerated since.
     """
-    target_attrs = dict(open_store(mixed.store).attrs)
+    target_attrs = attributes(open_store(mixed.store))
     out: dict[str, np.ndarray] = {}
     for k, name in enumerate(mixed.sources):
         group = open_source(mixed.store, target_attrs, name, mixed.source_config_hash.get(name))

@@ -2,27 +2,29 @@
 
 :class:`StageCache` keeps ``state_dict``\\ s under ``<root>/<stage>/<key>.pt``, the
 key a hash of everything that determines the stage (the data's bytes, sizes,
-epochs, seed), written atomically (temporary name, then ``os.replace``), so a
-reader sees a whole file or none. A process about to train a stage holds an
-exclusive ``flock`` on ``<root>/<stage>/.<key>.lock``; another process (or thread)
+epochs, seed), written atomically (:func:`synthcal.utils.atomic.atomic_write`), so
+a reader sees a whole file or none. A process about to train a stage holds an
+exclusive lock on ``<root>/<stage>/.<key>.lock`` (:class:`filelock.FileLock`:
+``flock`` on POSIX, ``msvcrt`` locking on Windows); another process (or thread)
 that needs the same stage waits for it and then loads its file instead of training
-again. Where ``flock`` is unavailable (Windows) or not honoured (some network file
-systems), both train and the last rename wins; both files are valid.
+again. Where locks are not honoured (some network file systems), both train and
+the last rename wins; both files are valid.
 """
-
 from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
-from contextlib import contextmanager, nullcontext
+from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
-from typing import Any, Callable, ContextManager, Iterator
+from typing import Any
 
 import numpy as np
 import torch
+from filelock import FileLock
 from torch import Tensor
+
+from synthcal.utils.atomic import atomic_write
 
 __all__ = ["digest", "StageCache"]
 
@@ -34,7 +36,7 @@ def digest(*parts: Any) -> str:
         if isinstance(part, (np.ndarray, Tensor)):
             array = np.ascontiguousarray(part.cpu().numpy() if isinstance(part, Tensor) else part)
             h.update(f"{array.shape}{array.dtype}".encode())
-            h.update(memoryview(array).cast("B"))
+            h.update(array.data.cast("B"))  # contiguous: its buffer, no copy
         else:
             h.update(json.dumps(part, sort_keys=True, default=str).encode())
     return h.hexdigest()
@@ -66,14 +68,8 @@ class StageCache:
         if path is None:
             return
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
-        os.close(fd)
-        try:
+        with atomic_write(path) as tmp:
             torch.save(obj, tmp)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
 
     def cached(self, stage: str, key: str, build: Callable[[], Any]) -> tuple[Any, bool]:
         """``(obj, trained)``: the stored object, or ``build()`` stored then returned.
@@ -92,27 +88,14 @@ class StageCache:
             self.save(stage, key, obj)
         return obj, True
 
-    def _building(self, stage: str, key: str) -> ContextManager[None]:
+    def _building(self, stage: str, key: str) -> AbstractContextManager[object]:
+        """The lock held while building a stage (nothing when caching is off).
+
+        The lock file is created if missing and left in place: removing it would race
+        with a waiter that has just opened it.
+        """
         path = self.path(stage, key)
-        if path is None or _flock is None:
+        if path is None:
             return nullcontext()
-        return _exclusive_lock(path.with_name(f".{key}.lock"))
-
-
-try:
-    from fcntl import LOCK_EX, LOCK_UN, flock as _flock
-except ImportError:  # Windows: no advisory locks; concurrent builders both build
-    _flock = None
-
-
-@contextmanager
-def _exclusive_lock(path: Path) -> Iterator[None]:
-    """Hold an exclusive advisory lock on ``path`` (created if missing; left in place)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        _flock(fd, LOCK_EX)
-        yield
-    finally:
-        _flock(fd, LOCK_UN)
-        os.close(fd)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return FileLock(path.with_name(f".{key}.lock"))

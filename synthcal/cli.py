@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     import pandas as pd
     import zarr
 
-    from synthcal.config import LoadedConfig
+    from synthcal.config import DatasetSpec, LoadedConfig
     from synthcal.generate.splits import DrawResult
 
 __all__ = ["main"]
@@ -57,7 +57,7 @@ def _cmd_generate(args: argparse.Namespace) -> None:
     from synthcal.generate.pipeline import generate_dataset
 
     config = load_config(args.config)
-    specs = [config.resolve(name, args.profile, args.n) for name in args.datasets]  # validate all first
+    specs = [_resolve_with_n(config, name, args.profile, args.n) for name in args.datasets]  # validate all first
     paths = []
     for spec in specs:
         started = time.perf_counter()
@@ -73,6 +73,40 @@ def _cmd_generate(args: argparse.Namespace) -> None:
             _print_draw(draw_splits(path, spec.split_seeds, spec.splits, spec.mixed_sources))
 
 
+def _resolve_with_n(config: LoadedConfig, name: str, profile: str | None, n: int | None) -> DatasetSpec:
+    """``config.resolve`` with ``--n`` checked here first, so that its errors name the flag
+    (the library names the parameter, ``pool_size``)."""
+    entry = config.config.datasets.get(name)
+    if n is not None and entry is not None:
+        if entry.poses is not None:
+            raise _UserError(f"{config.path}: datasets.{name}: --n: the poses {entry.poses!r} fix the pool size "
+                             f"(value {n})")
+        if n < 1:
+            raise _UserError(f"--n: the pool size must be ≥ 1 (value {n})")
+    return config.resolve(name, profile, n)
+
+
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``--seeds``: ``"0-4"``, ``"0,2,7"`` or ``"3"`` → sorted distinct seeds.
+
+    Raises:
+        SplitError: not such a list, or a negative seed.
+    """
+    from synthcal.store.splits import SplitError
+
+    seeds: set[int] = set()
+    try:
+        for part in text.split(","):
+            first, _, last = part.strip().partition("-")
+            low, high = int(first), int(last or first)
+            if high < low:
+                raise ValueError
+            seeds.update(range(low, high + 1))
+    except ValueError:
+        raise SplitError(f"--seeds: expected e.g. 0-4 or 0,2,5 with seeds ≥ 0 (value {text!r})") from None
+    return tuple(sorted(seeds))
+
+
 def _print_draw(result: "DrawResult") -> None:
     """One line per store drawn by ``split`` / ``generate --splits``."""
     drawn = ", ".join(map(str, result.drawn)) or "none"
@@ -83,12 +117,15 @@ def _print_draw(result: "DrawResult") -> None:
 
 
 def _cmd_split(args: argparse.Namespace) -> None:
-    from synthcal.generate.splits import draw_splits, parse_seeds, split_sizes
-    from synthcal.store.splits import store_spec
+    from synthcal.generate.splits import draw_splits, split_sizes
     from synthcal.store import open_store
+    from synthcal.store.splits import store_spec
 
     spec = store_spec(open_store(args.store), args.store)
     overrides = {name: getattr(args, name) for name in ("train", "test", "dictionary")}
+    for name, value in overrides.items():  # here, so that the message names the flag
+        if value is not None and value < 1:
+            raise _UserError(f"--{name}: a split size must be an integer ≥ 1 (value {value!r})")
     sizes = split_sizes(spec.splits, **{k: v for k, v in overrides.items() if v is not None})
     seeds = parse_seeds(args.seeds) if args.seeds else None
     _print_draw(draw_splits(args.store, seeds, sizes))
@@ -229,7 +266,7 @@ DEMO_SEEDS = "0-4"
 def _demo_bench(args: argparse.Namespace, config: "LoadedConfig", out: Path) -> None:
     from synthcal.eval.harness import expand_runs, run_sweep
     from synthcal.generate.pipeline import store_path
-    from synthcal.generate.splits import draw_splits, parse_seeds
+    from synthcal.generate.splits import draw_splits
 
     seeds = parse_seeds(DEMO_SEEDS)
     store = store_path(out, DEMO_DATASET)
@@ -289,7 +326,6 @@ class _UserError(ValueError):
 def _cmd_bench(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.eval.harness import expand_runs, run_sweep
-    from synthcal.generate.splits import parse_seeds
 
     training = load_config(args.config).training(args.profile)
     segmentations = args.segmentation or [training.segmentation]
@@ -403,10 +439,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", default="0-4", help="split seeds, e.g. 0-4 or 0,2 (default 0-4)")
     p.add_argument("--profile", default=None, help="training sizes of datasets.yaml (smoke, demo, quick, paper)")
     p.add_argument("--results", type=Path, required=True, help="results folder (runs/, cache/)")
-    p.add_argument("--training", nargs="+", default=["step-by-step"], choices=["step-by-step", "end-to-end"])
-    p.add_argument("--loss", nargs="+", default=["top-mse"], choices=["top-mse", "mse", "top-dice", "dice"])
-    p.add_argument("--matching", nargs="+", default=["top-mse"], choices=["top-mse", "mse"])
-    p.add_argument("--segmentation", nargs="+", default=None, choices=["unet", "ground-truth"],
+    from synthcal.options import LOSSES, MATCHINGS, SEGMENTATIONS, TRAININGS  # the vocabularies, defined once
+
+    p.add_argument("--training", nargs="+", default=["step-by-step"], choices=TRAININGS)
+    p.add_argument("--loss", nargs="+", default=["top-mse"], choices=LOSSES)
+    p.add_argument("--matching", nargs="+", default=["top-mse"], choices=MATCHINGS)
+    p.add_argument("--segmentation", nargs="+", default=None, choices=SEGMENTATIONS,
                    help="default: the profile's")
     p.add_argument("--device", default="auto", help="torch device: auto (CUDA when available), cpu, cuda")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the runs on this Dask scheduler")

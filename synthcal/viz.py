@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -12,20 +13,28 @@ from synthcal.generate.scenes import colorize
 
 __all__ = ["colorize", "overlay", "sample_strip", "tile", "write_png"]
 
+# One RGB triple per class id: a scene's (4, 3) uint8 array or a list of triples.
+Palette = np.ndarray | Sequence[Sequence[int]]
 
-def overlay(image: np.ndarray, semantic: np.ndarray, palette: np.ndarray | list, alpha: float = 0.5) -> np.ndarray:
+
+def _triples(palette: Palette) -> list[list[int]]:
+    """The palette as the list of RGB triples :func:`colorize` takes."""
+    return np.asarray(palette, np.uint8).reshape(-1, 3).tolist()
+
+
+def overlay(image: np.ndarray, semantic: np.ndarray, palette: Palette, alpha: float = 0.5) -> np.ndarray:
     """RGB with the coloured semantic map blended over its labelled pixels."""
-    coloured = colorize(semantic, palette).astype(np.float32)
+    coloured = colorize(semantic, _triples(palette)).astype(np.float32)
     out = image.astype(np.float32)
     labelled = semantic > 0
     out[labelled] = (1 - alpha) * out[labelled] + alpha * coloured[labelled]
     return out.astype(np.uint8)
 
 
-def sample_strip(image: np.ndarray, semantic: np.ndarray, palette: np.ndarray | list, gap: int = 2) -> np.ndarray:
+def sample_strip(image: np.ndarray, semantic: np.ndarray, palette: Palette, gap: int = 2) -> np.ndarray:
     """One sample as [image | coloured semantic | overlay], (H, 3W + 2·gap, 3)."""
     spacer = np.full((image.shape[0], gap, 3), 255, np.uint8)
-    parts = [image, spacer, colorize(semantic, palette), spacer, overlay(image, semantic, palette)]
+    parts = [image, spacer, colorize(semantic, _triples(palette)), spacer, overlay(image, semantic, palette)]
     return np.concatenate(parts, axis=1)
 
 

@@ -11,15 +11,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from synthcal.estimators import IdentityEstimator
+from synthcal.estimators import IdentityEstimator, SceneLike, SplitLike
 
 
 class RaisingEstimator:
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         pass
 
     def predict(self, images: np.ndarray) -> np.ndarray:
@@ -27,7 +26,7 @@ class RaisingEstimator:
 
 
 class NaNEstimator:
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         pass
 
     def predict(self, images: np.ndarray) -> np.ndarray:
@@ -35,7 +34,7 @@ class NaNEstimator:
 
 
 class InterruptingEstimator(IdentityEstimator):
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         marker = Path(os.environ.get("SYNTHCAL_TEST_INTERRUPT", "/nonexistent"))
         if marker.exists():
             marker.unlink()

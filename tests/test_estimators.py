@@ -23,11 +23,13 @@ from synthcal.estimators import (
     EstimatorError,
     IdentityEstimator,
     TemplateEstimator,
+    bundled_estimators,
     ecc_warp,
     known_estimators,
     load_estimator,
     medoid_index,
     one_hot,
+    registry,
 )
 from synthcal.eval.metrics import evaluate, iou, iou_whole
 from synthcal.generate.camera import homography
@@ -60,8 +62,8 @@ def make_split(scene, pans, tilts, focal=40.0, size=SIZE, store="unused", start=
 def world():
     scene = make_scene()
     grid = [(p, t) for p in range(-30, 31, 6) for t in (-25, -18, -12)]
-    train = make_split(scene, *zip(*grid))
-    dictionary = make_split(scene, *zip(*grid[::2]))
+    train = make_split(scene, *zip(*grid, strict=True))
+    dictionary = make_split(scene, *zip(*grid[::2], strict=True))
     test = make_split(scene, [-20.5, -7.0, 4.2, 17.0], [-22.0, -14.0, -19.0, -13.0])
     return scene, train, dictionary, test
 
@@ -78,6 +80,29 @@ def test_bundled_names_and_dotted_paths_load():
     assert type(template) is TemplateEstimator and template.stride == 4
     assert isinstance(template, Estimator)
     assert {"identity", "template", "ecc"} <= set(known_estimators())
+
+
+def test_bundled_names_are_synthcals_entry_points():
+    """pyproject.toml's entry-point table is the one list of bundled names (``sha2020`` included)."""
+    bundled = bundled_estimators()
+    assert set(bundled) == {"identity", "template", "ecc", "proposed", "baseline", "sha2020"}
+    assert bundled["sha2020"] == bundled["baseline"] == "synthcal.estimators.paper:BaselineEstimator"
+    assert bundled.items() <= known_estimators().items()
+
+
+def test_a_plugin_cannot_shadow_a_bundled_name(monkeypatch):
+    real = registry._entry_points()
+    # Listed first, from no synthcal distribution: a third party's "identity".
+    impostor = importlib.metadata.EntryPoint(name="identity", value="collections:OrderedDict", group=ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "_entry_points", lambda: [impostor, *real])
+    assert isinstance(load_estimator("identity"), IdentityEstimator)
+    assert known_estimators()["identity"] == "synthcal.estimators.classic:IdentityEstimator"
+
+
+def test_missing_entry_points_are_explained(monkeypatch):
+    monkeypatch.setattr(registry, "_entry_points", lambda: [])
+    with pytest.raises(EstimatorError, match="unknown estimator 'identity'.*synthcal's entry points are missing"):
+        load_estimator("identity")
 
 
 @pytest.mark.parametrize("value, fragment", [
@@ -179,8 +204,8 @@ def test_template_returns_the_nearest_template(world):
     np.testing.assert_array_equal(estimator.predict(dictionary.images[3:6]), dictionary.homographies[3:6])
     identity = IdentityEstimator()
     identity.fit(train, dictionary, scene)
-    ours = [iou(scene.semantic, h, t, SIZE) for h, t in zip(estimator.predict(test.images), test.homographies)]
-    base = [iou(scene.semantic, h, t, SIZE) for h, t in zip(identity.predict(test.images), test.homographies)]
+    ours = [iou(scene.semantic, h, t, SIZE) for h, t in zip(estimator.predict(test.images), test.homographies, strict=True)]
+    base = [iou(scene.semantic, h, t, SIZE) for h, t in zip(identity.predict(test.images), test.homographies, strict=True)]
     assert np.mean(ours) > np.mean(base) + 0.1
 
 

@@ -8,10 +8,8 @@ import pandas as pd
 import pytest
 
 from synthcal.cli import main
-from synthcal.config import load_config
 from synthcal.eval.harness import collect_results, execute_run, expand_runs, run_sweep, table_runs
 from synthcal.eval.tables import format_table
-from synthcal.generate.pipeline import generate_dataset
 from synthcal.generate.splits import draw_splits
 from synthcal.store.splits import SplitError
 
@@ -21,12 +19,10 @@ FAULTY = "synthcal_faulty_plugins"
 
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory) -> Path:
+def data(smoke_stores, tmp_path_factory) -> Path:
     """The five intersections at smoke size; intersection-1 with seeds 0, 1 and its mixed dictionary."""
-    config = load_config(ROOT / "datasets.yaml")
     out = tmp_path_factory.mktemp("bench-data")
-    for k in range(1, 6):
-        generate_dataset(config.resolve(f"intersection-{k}", "smoke"), out, progress=False)
+    smoke_stores.copy([f"intersection-{k}" for k in range(1, 6)], out)
     draw_splits(out / "intersection-1.zarr", seeds=[0, 1])
     return out
 

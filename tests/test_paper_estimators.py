@@ -11,6 +11,9 @@ from synthcal.config import load_config
 from synthcal.data import load_splits
 from synthcal.estimators import SemanticEstimator, load_estimator
 from synthcal.estimators.paper import BaselineEstimator, PaperEstimator, ProposedEstimator
+from synthcal.generate.render import render_semantic
+from synthcal.generate.splits import draw_splits
+from synthcal.models import end_to_end_weights, one_hot_maps, warp_semantic
 from synthcal.training import (
     StageCache,
     end_to_end_stage,
@@ -18,19 +21,13 @@ from synthcal.training import (
     reduce_scene,
     resolution_matrix,
 )
-from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.render import render_semantic
-from synthcal.generate.splits import draw_splits
-from synthcal.models import end_to_end_weights, one_hot_maps, warp_semantic
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def splits(tmp_path_factory):
-    config = load_config(ROOT / "datasets.yaml")
-    store = generate_dataset(config.resolve("intersection-1", "smoke"), tmp_path_factory.mktemp("paper"),
-                             progress=False)
+def splits(smoke_stores, tmp_path_factory):
+    store = smoke_stores.copy(["intersection-1"], tmp_path_factory.mktemp("paper"))["intersection-1"]
     draw_splits(store, seeds=[0])
     return load_splits(store, 0)
 

@@ -1,7 +1,7 @@
 """Estimators: the plug-in interface (SPEC §9), its loader and the bundled estimators.
 
 * :mod:`synthcal.estimators.protocol` — what an estimator is (``fit``, ``predict``);
-* :mod:`synthcal.estimators.registry` — a name or ``package.module:Class`` → an instance;
+* :mod:`synthcal.estimators.registry` — a name (an entry point) or ``package.module:Class`` → an instance;
 * :mod:`synthcal.estimators.classic` — ``identity``, ``template``, ``ecc``;
 * :mod:`synthcal.estimators.paper` — the paper's ``proposed`` and ``baseline`` models.
 
@@ -19,10 +19,17 @@ from synthcal.estimators.classic import (
     medoid_index,
     one_hot,
 )
-from synthcal.estimators.protocol import Estimator, EstimatorError, Segmenter, SemanticEstimator
+from synthcal.estimators.protocol import (
+    Estimator,
+    EstimatorError,
+    SceneLike,
+    Segmenter,
+    SemanticEstimator,
+    SplitLike,
+)
 from synthcal.estimators.registry import (
-    BUNDLED,
     ENTRY_POINT_GROUP,
+    bundled_estimators,
     known_estimators,
     load_estimator,
     resolve_estimator,
@@ -30,15 +37,17 @@ from synthcal.estimators.registry import (
 
 __all__ = [
     "ENTRY_POINT_GROUP",
-    "BUNDLED",
     "Estimator",
     "SemanticEstimator",
     "Segmenter",
+    "SplitLike",
+    "SceneLike",
     "EstimatorError",
     "ColourSegmenter",
     "IdentityEstimator",
     "TemplateEstimator",
     "ECCEstimator",
+    "bundled_estimators",
     "known_estimators",
     "resolve_estimator",
     "load_estimator",

@@ -32,7 +32,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from synthcal.estimators.protocol import Segmenter
+from synthcal.estimators.protocol import SceneLike, Segmenter, SplitLike
 
 __all__ = [
     "ColourSegmenter",
@@ -156,11 +156,13 @@ def medoid_index(semantics: Any, chunk: int = 256) -> int:
         Index of the medoid in ``0..K-1``.
     """
     n = len(semantics)
-    counts = None
+    counts: np.ndarray | None = None
     for start in range(0, n, chunk):
         block = np.asarray(semantics[start:start + chunk]).astype(np.int64)
         c = (block[..., None] == np.arange(NUM_CLASSES)).sum(0)
         counts = c if counts is None else counts + c
+    if counts is None:
+        raise ValueError("medoid_index: no class maps (K = 0)")
     frequency = counts / n
     scores = []
     for start in range(0, n, chunk):
@@ -204,7 +206,8 @@ def ecc_warp(
     warp = np.eye(3, dtype=np.float32)
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, int(iterations), float(eps))
     try:
-        _, warp = cv2.findTransformECC(
+        # OpenCV takes None for "no mask"; its stubs allow None only in the overload without gaussFiltSize.
+        _, warp = cv2.findTransformECC(  # type: ignore[call-overload]
             _GREY_LEVELS[np.asarray(template)], _GREY_LEVELS[np.asarray(target)], warp,
             cv2.MOTION_HOMOGRAPHY, criteria, None, int(blur),
         )
@@ -225,7 +228,7 @@ class IdentityEstimator:
     def __init__(self) -> None:
         self.homography: np.ndarray | None = None
 
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         self.homography = np.asarray(train.homographies[medoid_index(train.semantics)], np.float64)
 
     def predict(self, images: np.ndarray) -> np.ndarray:
@@ -254,7 +257,7 @@ class TemplateEstimator:
         self.template_semantics: np.ndarray | None = None
         self.template_homographies: np.ndarray | None = None
 
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         if self.fit_segmenter:
             self.segmenter.fit(train.images, train.semantics)
         self.template_semantics = np.asarray(dictionary.semantics)
@@ -271,18 +274,24 @@ class TemplateEstimator:
         semantics = self.segmenter(np.asarray(images))
         return self.match_semantic(semantics), semantics
 
+    def _dictionary(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(templates, template_semantics, template_homographies)`` of the fitted dictionary."""
+        if self.templates is None or self.template_semantics is None or self.template_homographies is None:
+            raise RuntimeError(f"{type(self).__name__}: call fit() first")
+        return self.templates, self.template_semantics, self.template_homographies
+
     def match_semantic(self, semantics: np.ndarray) -> np.ndarray:
         """(B,) indices of the templates nearest (MSE) to (B, H, W) class maps."""
-        if self.templates is None:
-            raise RuntimeError(f"{type(self).__name__}: call fit() first")
-        return match_templates(one_hot(semantics, self.stride), self.templates)
+        templates, _, _ = self._dictionary()
+        return match_templates(one_hot(semantics, self.stride), templates)
 
     def predict(self, images: np.ndarray) -> np.ndarray:
         return self.predict_semantic(self.segmenter(np.asarray(images)))
 
     def predict_semantic(self, semantics: np.ndarray) -> np.ndarray:
         """The matched templates' homographies for (B, H, W) class maps."""
-        return self.template_homographies[self.match_semantic(semantics)].copy()
+        _, _, homographies = self._dictionary()
+        return homographies[self.match_semantic(semantics)].copy()
 
 
 class ECCEstimator(TemplateEstimator):
@@ -308,11 +317,12 @@ class ECCEstimator(TemplateEstimator):
         self.iterations, self.eps, self.blur = iterations, eps, blur
 
     def predict_semantic(self, semantics: np.ndarray) -> np.ndarray:
+        _, template_semantics, homographies = self._dictionary()
         semantics = np.asarray(semantics)
         indices = self.match_semantic(semantics)
-        out = self.template_homographies[indices].copy()
-        for k, (index, semantic) in enumerate(zip(indices, semantics)):
-            warp = ecc_warp(self.template_semantics[index], semantic, self.iterations, self.eps, self.blur)
+        out = homographies[indices].copy()
+        for k, (index, semantic) in enumerate(zip(indices, semantics, strict=True)):
+            warp = ecc_warp(template_semantics[index], semantic, self.iterations, self.eps, self.blur)
             if warp is not None:
                 out[k] = warp @ out[k]
         return out

@@ -8,10 +8,12 @@
 
 Options
 -------
+The option values are defined once, in :mod:`synthcal.options`.
+
 ``model``
     ``proposed`` (the paper's STN: LocBlocks, self-attention, three FC layers) or
     ``baseline`` (Sha et al.'s plain localisation network). Table label
-    ``proposed`` / ``sha2020``.
+    ``proposed`` / ``sha2020`` (:data:`synthcal.options.MODEL_LABELS`).
 ``training``
     ``step-by-step``: UNet (cross-entropy), then Siamese (contrastive loss, pairs
     from the ground-truth matching), then STN (``L_warp``), each with its own loss
@@ -53,14 +55,16 @@ Options
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict, TypeVar, cast
 
 import numpy as np
 import torch
 from torch import Tensor, nn
 
 from synthcal.config import TrainingSettings
+from synthcal.estimators.protocol import SceneLike, SplitLike
 from synthcal.models import (
     BaselineSTN,
     ProposedSTN,
@@ -70,15 +74,28 @@ from synthcal.models import (
     match_ground_truth,
     one_hot_maps,
 )
-
+from synthcal.options import (
+    LOSSES,
+    MATCHINGS,
+    MODEL_LABELS,
+    MODELS,
+    SEGMENTATIONS,
+    TRAININGS,
+    Loss,
+    Matching,
+    Model,
+    Segmentation,
+    Training,
+)
 from synthcal.training import (
+    MATCHING_SCORES,
     NUM_CLASSES,
     ClassMapLogits,
     StageCache,
     TrainingData,
-    embed_templates,
     composite_model,
     digest,
+    embed_templates,
     estimate,
     reduce_class_maps,
     reduce_images,
@@ -90,22 +107,31 @@ from synthcal.training import (
     train_unet,
 )
 
-__all__ = ["MODELS", "TRAININGS", "LOSSES", "MATCHINGS", "SEGMENTATIONS", "PaperEstimator", "ProposedEstimator",
-           "BaselineEstimator"]
+__all__ = ["PaperEstimator", "ProposedEstimator", "BaselineEstimator"]
 
-MODELS = {"proposed": "proposed", "baseline": "sha2020"}  # option → table label
-TRAININGS = ("step-by-step", "end-to-end")
-LOSSES = ("top-mse", "mse", "top-dice", "dice")
-MATCHINGS = ("top-mse", "mse")
-SEGMENTATIONS = ("unet", "ground-truth")
 # Batches of images scored per forward pass at test time.
 _PREDICT_BATCH = 64
 
+_Option = TypeVar("_Option", bound=str)
+_Module = TypeVar("_Module", bound=nn.Module)
 
-def _choice(name: str, value: str, allowed: tuple[str, ...] | dict) -> str:
-    if value not in allowed:
-        raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
-    return value
+
+def _choice(name: str, value: str, allowed: Sequence[_Option]) -> _Option:
+    """``value`` as one of ``allowed`` (a vocabulary of :mod:`synthcal.options`), or a ValueError naming it."""
+    for option in allowed:
+        if value == option:
+            return option
+    raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+
+
+class _Common(TypedDict):
+    """Keywords every training function takes."""
+
+    batch_size: int
+    lr: float
+    device: torch.device
+    seed: int
+    progress: bool
 
 
 class PaperEstimator:
@@ -116,15 +142,16 @@ class PaperEstimator:
 
     label = "proposed"
 
-    def __init__(self, model: str = "proposed", training: str = "step-by-step", loss: str = "top-mse",
-                 matching: str = "top-mse", segmentation: str = "unet",
+    def __init__(self, model: Model = "proposed", training: Training = "step-by-step", loss: Loss = "top-mse",
+                 matching: Matching = "top-mse", segmentation: Segmentation = "unet",
                  settings: TrainingSettings | dict[str, Any] | None = None, device: str = "auto",
                  cache_dir: str | Path | None = None, seed: int = 0, progress: bool = False) -> None:
-        self.model = _choice("model", model, MODELS)
-        self.training = _choice("training", training, TRAININGS)
-        self.loss = _choice("loss", loss, LOSSES)
-        self.matching = _choice("matching", matching, MATCHINGS)
-        self.segmentation = _choice("segmentation", segmentation, SEGMENTATIONS)
+        # Checked at run time too: values come from the command line and configs.
+        self.model: Model = _choice("model", model, MODELS)
+        self.training: Training = _choice("training", training, TRAININGS)
+        self.loss: Loss = _choice("loss", loss, LOSSES)
+        self.matching: Matching = _choice("matching", matching, MATCHINGS)
+        self.segmentation: Segmentation = _choice("segmentation", segmentation, SEGMENTATIONS)
         if isinstance(settings, TrainingSettings):
             settings = settings.model_dump()
         self.settings = TrainingSettings(**(settings or {}))
@@ -132,7 +159,7 @@ class PaperEstimator:
         self.cache = StageCache(cache_dir)
         self.seed = int(seed)
         self.progress = progress
-        self.label = MODELS[self.model]
+        self.label = MODEL_LABELS[self.model]
         self.trained_stages: list[str] = []
         self.history: dict[str, list[float]] = {}
         self._fitted: dict[str, Any] | None = None
@@ -159,7 +186,7 @@ class PaperEstimator:
         torch.manual_seed(self.seed)
         return cls(2 * NUM_CLASSES, width=self.settings.stn_width)
 
-    def _data(self, train: Any, dictionary: Any, scene: Any) -> tuple[TrainingData, dict[str, str]]:
+    def _data(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> tuple[TrainingData, dict[str, str]]:
         """The train split and dictionary at the working resolution, the ground-truth
         matches, and the digests that key the cached stages."""
         semantics = np.asarray(train.semantics)[: self.settings.max_train]
@@ -170,10 +197,11 @@ class PaperEstimator:
         templates = np.asarray(dictionary.semantics)
         keys = {"train": digest(semantics, images if images is not None else 0, full_size, work_size),
                 "dictionary": digest(templates, np.asarray(dictionary.homographies))}
-        score = self.matching.replace("-", "_")
+        score = MATCHING_SCORES[self.matching]
         match, _ = self.cache.cached("match", digest(keys["train"], keys["dictionary"], score), lambda: (
             match_ground_truth(torch.from_numpy(semantics).to(self.device),
                                torch.from_numpy(templates).to(self.device), score).index.cpu()))
+        scene_map, scene_frame = reduce_scene(scene.semantic, self.settings.scene_downsample)
         data = TrainingData(
             images=None if images is None else reduce_images(images, work_size),
             semantics=reduce_class_maps(semantics, work_size),
@@ -181,7 +209,8 @@ class PaperEstimator:
             match=match,
             templates=reduce_class_maps(templates, work_size),
             template_homographies=A @ torch.from_numpy(np.asarray(dictionary.homographies, np.float64)),
-            **dict(zip(("scene", "scene_frame"), reduce_scene(scene.semantic, self.settings.scene_downsample))),
+            scene=scene_map,
+            scene_frame=scene_frame,
             work_size=work_size,
         )
         return data, keys
@@ -190,7 +219,8 @@ class PaperEstimator:
         """The per-epoch mean losses of a stage trained by this fit (:attr:`history`)."""
         return self.history.setdefault(stage, [])
 
-    def _stage(self, name: str, key: str, module: nn.Module, train: Any) -> nn.Module:
+    def _stage(self, name: str, key: str, module: _Module,
+               train: Callable[[_Module, list[float]], nn.Module]) -> _Module:
         """Load ``module``'s weights from the cache, or train it there and record it."""
         state, trained = self.cache.cached(name, key, lambda: train(module, self._log(name)).state_dict())
         if trained:
@@ -201,13 +231,14 @@ class PaperEstimator:
 
     # --- fitting --------------------------------------------------------------------------
 
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         """Train the stages on ``train`` against ``dictionary`` over ``scene`` (SPEC §9)."""
         self.trained_stages, self.history = [], {}
         data, keys = self._data(train, dictionary, scene)
         s, device = self.settings, self.device
-        common = dict(batch_size=s.batch_size, lr=s.learning_rate, device=device, seed=self.seed,
-                      progress=self.progress)
+        common = _Common(batch_size=s.batch_size, lr=s.learning_rate, device=device, seed=self.seed,
+                         progress=self.progress)
+        unet: nn.Module | None
         if self.training == "end-to-end":
             unet = self._unet() if self.uses_unet else ClassMapLogits()
             siamese, stn = self._siamese(), self._stn()
@@ -245,7 +276,7 @@ class PaperEstimator:
 
     def _from_maps(self, maps: Tensor) -> np.ndarray:
         """(B, 4, h, w) input maps on the device → (B, 3, 3) full-resolution homographies."""
-        f = self._fitted
+        f = self._check_fitted()
         H_work = estimate(maps, f["siamese"], f["stn"], f["embedding"], f["templates"],
                           f["template_homographies"], f["work_size"])
         return np.linalg.solve(f["A"], H_work.cpu().numpy())
@@ -286,7 +317,8 @@ def _fixed_model(cls: type[PaperEstimator]) -> type[PaperEstimator]:
     callers (the harness) see which options it takes.
     """
     signature = inspect.signature(PaperEstimator.__init__)
-    cls.__init__.__signature__ = signature.replace(
+    init = cast(Any, cls.__init__)  # a function object: it takes the attribute inspect reads
+    init.__signature__ = signature.replace(
         parameters=[p for name, p in signature.parameters.items() if name != "model"])
     return cls
 

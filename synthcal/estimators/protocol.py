@@ -8,11 +8,11 @@ The interface
 An estimator is any class with
 
 * ``fit(train, dictionary, scene) -> None`` — called once per (dataset, seed).
-  ``train`` and ``dictionary`` are split objects exposing ``.images`` (K, H, W, 3)
+  ``train`` and ``dictionary`` are split objects (:class:`SplitLike`) exposing ``.images`` (K, H, W, 3)
   uint8 RGB, ``.semantics`` (K, H, W) uint8 class ids, ``.homographies``
   (K, 3, 3) float64, ``.indices`` (K,) int64 positions in the store and ``.store``
   (the store's path); the arrays may be NumPy or lazy array-likes that support
-  slicing and ``numpy.asarray``. ``scene`` exposes ``.image`` (Hs, Ws, 3) uint8,
+  slicing and ``numpy.asarray``. ``scene`` (:class:`SceneLike`) exposes ``.image`` (Hs, Ws, 3) uint8,
   ``.semantic`` (Hs, Ws) uint8, ``.palette`` (4 RGB triples) and ``.classes``
   (4 names). The objects come from ``synthcal.data.load_split``; an estimator
   should use these attributes only.
@@ -30,18 +30,68 @@ An estimator is any class with
 
 from __future__ import annotations
 
-from typing import Any, Protocol, runtime_checkable
+from collections.abc import Sequence
+from os import PathLike
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Estimator", "SemanticEstimator", "Segmenter", "EstimatorError"]
+__all__ = ["SplitLike", "SceneLike", "Estimator", "SemanticEstimator", "Segmenter", "EstimatorError"]
+
+
+class SplitLike(Protocol):
+    """What ``fit`` may read of a split (train or dictionary): ``synthcal.data.SplitDataset`` or a stand-in.
+
+    Read-only: an estimator must not change the split. The arrays may also be
+    lazy array-likes that support slicing and ``numpy.asarray``.
+    """
+
+    @property
+    def images(self) -> np.ndarray:
+        """(K, H, W, 3) uint8 RGB."""
+
+    @property
+    def semantics(self) -> np.ndarray:
+        """(K, H, W) uint8 class ids."""
+
+    @property
+    def homographies(self) -> np.ndarray:
+        """(K, 3, 3) float64 bird's-eye → image homographies."""
+
+    @property
+    def indices(self) -> np.ndarray:
+        """(K,) int64 positions in the store's pool."""
+
+    @property
+    def store(self) -> str | PathLike[str]:
+        """The store's path (for plug-ins that read more of it)."""
+
+
+class SceneLike(Protocol):
+    """What ``fit`` may read of the bird's-eye scene: ``synthcal.data.StoreScene`` or a stand-in."""
+
+    @property
+    def image(self) -> np.ndarray:
+        """(Hs, Ws, 3) uint8 RGB."""
+
+    @property
+    def semantic(self) -> np.ndarray:
+        """(Hs, Ws) uint8 class ids."""
+
+    @property
+    def palette(self) -> np.ndarray:
+        """(4, 3) uint8 display colours, index = class id."""
+
+    @property
+    def classes(self) -> Sequence[str]:
+        """The 4 class names, index = class id."""
 
 
 @runtime_checkable
 class Estimator(Protocol):
     """A homography estimator (SPEC §9); see the module docstring for argument types."""
 
-    def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         """Learn from the train split, the template dictionary and the scene."""
 
     def predict(self, images: np.ndarray) -> np.ndarray:

@@ -1,8 +1,14 @@
 """Turning a command-line or config value into an estimator.
 
 ``load_estimator(name_or_path, **options)`` turns a command-line/config value
-into an instance: a dotted path ``package.module:Class``, a name in the
-entry-point group ``synthcal.estimators``, or a bundled short name.
+into an instance: a dotted path ``package.module:Class`` or a name in the
+entry-point group ``synthcal.estimators``.
+
+The bundled estimators are synthcal's own entry points in that group (the
+``[project.entry-points."synthcal.estimators"]`` table of ``pyproject.toml``, the
+one list of their names): ``identity``, ``template``, ``ecc``, ``proposed``,
+``baseline`` and its alias ``sha2020``. Plug-ins add theirs the same way; a
+plug-in cannot shadow a bundled name.
 """
 
 from __future__ import annotations
@@ -13,31 +19,40 @@ from typing import Any
 
 from synthcal.estimators.protocol import Estimator, EstimatorError
 
-__all__ = ["ENTRY_POINT_GROUP", "BUNDLED", "known_estimators", "resolve_estimator", "load_estimator"]
+__all__ = ["ENTRY_POINT_GROUP", "bundled_estimators", "known_estimators", "resolve_estimator", "load_estimator"]
 
 ENTRY_POINT_GROUP = "synthcal.estimators"
-
-BUNDLED: dict[str, str] = {
-    "identity": "synthcal.estimators.classic:IdentityEstimator",
-    "template": "synthcal.estimators.classic:TemplateEstimator",
-    "ecc": "synthcal.estimators.classic:ECCEstimator",
-    "proposed": "synthcal.estimators.paper:ProposedEstimator",
-    "baseline": "synthcal.estimators.paper:BaselineEstimator",
-    "sha2020": "synthcal.estimators.paper:BaselineEstimator",
-}
+# The distribution whose entry points are the bundled estimators.
+_DISTRIBUTION = "synthcal"
 
 
-def _entry_points() -> dict[str, metadata.EntryPoint]:
+def _entry_points() -> list[metadata.EntryPoint]:
     # Looked up through the module at call time so tests can monkeypatch it.
-    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
+    return list(metadata.entry_points(group=ENTRY_POINT_GROUP))
+
+
+def _is_bundled(entry_point: metadata.EntryPoint) -> bool:
+    dist = entry_point.dist
+    return dist is not None and dist.name.lower() == _DISTRIBUTION
+
+
+def _by_name() -> dict[str, metadata.EntryPoint]:
+    """Entry points by name, synthcal's own first: a third-party name cannot shadow a bundled one."""
+    entry_points = sorted(_entry_points(), key=lambda ep: not _is_bundled(ep))  # stable: bundled first
+    found: dict[str, metadata.EntryPoint] = {}
+    for ep in entry_points:
+        found.setdefault(ep.name, ep)
+    return found
+
+
+def bundled_estimators() -> dict[str, str]:
+    """Bundled short names → ``module:Class`` (synthcal's own entry points)."""
+    return {ep.name: ep.value for ep in _entry_points() if _is_bundled(ep)}
 
 
 def known_estimators() -> dict[str, str]:
-    """Resolvable short names → ``module:Class``: bundled ones, then entry points."""
-    names = dict(BUNDLED)
-    for name, ep in _entry_points().items():
-        names.setdefault(name, ep.value)
-    return names
+    """Resolvable short names → ``module:Class``: bundled ones, then the plug-ins' entry points."""
+    return {name: ep.value for name, ep in _by_name().items()}
 
 
 def _import_dotted(path: str) -> Any:
@@ -61,10 +76,11 @@ def resolve_estimator(name_or_path: str) -> Any:
     """The class (or factory) a command-line or config value names, not instantiated.
 
     Resolution order: a value containing ``:`` is a dotted path
-    ``package.module:Class``; otherwise a bundled short name (``identity``,
-    ``template``, ``ecc``, ``proposed``, ``baseline`` — bundled names cannot be
-    shadowed by third-party packages); otherwise an entry point of that name in
-    group ``synthcal.estimators``.
+    ``package.module:Class``; otherwise a bundled short name (synthcal's own entry
+    point of that name: ``identity``, ``template``, ``ecc``, ``proposed``,
+    ``baseline``, ``sha2020`` — bundled names cannot be shadowed by third-party
+    packages); otherwise another distribution's entry point of that name in group
+    ``synthcal.estimators``.
 
     Raises:
         EstimatorError: the value cannot be resolved (the message names it and
@@ -73,20 +89,22 @@ def resolve_estimator(name_or_path: str) -> Any:
     value = str(name_or_path)
     if ":" in value:
         cls = _import_dotted(value)
-    elif value in BUNDLED:
-        cls = _import_dotted(BUNDLED[value])
     else:
-        entry_points = _entry_points()
+        entry_points = _by_name()
         if value not in entry_points:
-            known = ", ".join(sorted(known_estimators()))
+            known = ", ".join(sorted(entry_points))
+            # Without its metadata (not installed) synthcal has no entry points: say so.
+            hint = "" if any(map(_is_bundled, entry_points.values())) else (
+                " (no bundled names: synthcal's entry points are missing; install it, e.g. `pip install -e .`)")
             raise EstimatorError(
                 f"unknown estimator {value!r}: not a 'package.module:Class' path, a bundled name "
-                f"or an entry point in group {ENTRY_POINT_GROUP!r}; known: {known}"
+                f"or an entry point in group {ENTRY_POINT_GROUP!r}; known: {known}{hint}"
             )
+        entry_point = entry_points[value]
         try:
-            cls = entry_points[value].load()
+            cls = entry_point.load()
         except Exception as error:  # a broken plug-in must name itself
-            raise EstimatorError(f"estimator {value!r}: entry point {entry_points[value].value!r} "
+            raise EstimatorError(f"estimator {value!r}: entry point {entry_point.value!r} "
                                  f"failed to load ({error})") from error
     if not callable(cls):
         raise EstimatorError(f"estimator {value!r}: {cls!r} is not a class or factory")

@@ -59,27 +59,30 @@ Dask
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import inspect
 import itertools
 import json
-import os
-import tempfile
 import time
 import traceback
+from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
 from synthcal.data import load_split, read_scene
-from synthcal.estimators import load_estimator, resolve_estimator
+from synthcal.estimators import SemanticEstimator, load_estimator, resolve_estimator
 from synthcal.eval.metrics import METRICS, evaluate, summarize
-from synthcal.store.splits import SplitError, drawn_seeds
+from synthcal.options import Loss, Matching, Segmentation, Training
 from synthcal.store import open_store
+from synthcal.store.splits import SplitError, drawn_seeds
+from synthcal.utils.atomic import atomic_write
+from synthcal.utils.dispatch import dispatch
 
 __all__ = [
     "AXES",
@@ -93,6 +96,7 @@ __all__ = [
     "table_runs",
 ]
 
+# Run fields an estimator may take as constructor keywords (values: synthcal.options).
 AXES = ("training", "loss", "matching", "segmentation")
 # Run fields that do not change the result, left out of the run's hash.
 _NOT_HASHED = ("store",)
@@ -124,10 +128,10 @@ class Run:
     model: str
     seed: int
     profile: str | None = None
-    training: str | None = None
-    loss: str | None = None
-    matching: str | None = None
-    segmentation: str | None = None
+    training: Training | None = None
+    loss: Loss | None = None
+    matching: Matching | None = None
+    segmentation: Segmentation | None = None
     settings: dict[str, Any] | None = field(default=None, hash=False)
 
     @property
@@ -173,10 +177,10 @@ def expand_runs(
     seeds: Sequence[int],
     profile: str | None = None,
     settings: dict[str, Any] | None = None,
-    trainings: Sequence[str] = ("step-by-step",),
-    losses: Sequence[str] = ("top-mse",),
-    matchings: Sequence[str] = ("top-mse",),
-    segmentations: Sequence[str] = ("unet",),
+    trainings: Sequence[Training] = ("step-by-step",),
+    losses: Sequence[Loss] = ("top-mse",),
+    matchings: Sequence[Matching] = ("top-mse",),
+    segmentations: Sequence[Segmentation] = ("unet",),
 ) -> list[Run]:
     """The sweep grid, with axes collapsed where they do not apply.
 
@@ -187,7 +191,8 @@ def expand_runs(
         SplitError: a missing store, or a seed whose splits are not drawn.
         EstimatorError: an estimator that cannot be resolved.
     """
-    values = {"training": trainings, "loss": losses, "matching": matchings, "segmentation": segmentations}
+    values: dict[str, Sequence[str]] = {"training": trainings, "loss": losses, "matching": matchings,
+                                        "segmentation": segmentations}
     runs: dict[str, Run] = {}
     for label in datasets:
         store, mixed = dataset_store(data_dir, label)
@@ -201,11 +206,12 @@ def expand_runs(
             cls = resolve_estimator(name)
             params = _parameters(cls)
             applies = {a: (hasattr(cls, "predict_semantic") if a == "segmentation" else a in params) for a in AXES}
-            grid = [values[a] if applies[a] else [None] for a in AXES]
+            grid: list[Sequence[str | None]] = [values[a] if applies[a] else [None] for a in AXES]
             for seed, combo in itertools.product(seeds, itertools.product(*grid)):
-                run = Run(dataset=label, store=str(store), mixed=mixed, store_hash=group.attrs["config_hash"],
+                axes: dict[str, Any] = dict(zip(AXES, combo, strict=True))
+                run = Run(dataset=label, store=str(store), mixed=mixed, store_hash=str(group.attrs["config_hash"]),
                           estimator=name, model=estimator_label(name, cls), seed=int(seed), profile=profile,
-                          settings=settings if "settings" in params else None, **dict(zip(AXES, combo)))
+                          settings=settings if "settings" in params else None, **axes)
                 runs.setdefault(run.id, run)
     return list(runs.values())
 
@@ -214,14 +220,8 @@ def expand_runs(
 
 
 def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    with atomic_write(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
 
 
 def run_folder(results: str | Path, run: Run) -> Path:
@@ -241,9 +241,10 @@ def _options(run: Run, cls: Any, results: Path, device: str, progress: bool) -> 
     return {k: v for k, v in offered.items() if k in params and v is not None}
 
 
-def _estimate(run: Run, results: Path, device: str, progress: bool, splits: dict[str, Any]) -> tuple[Any, str, dict]:
+def _estimate(run: Run, results: Path, device: str, progress: bool,
+              splits: dict[str, Any]) -> tuple[Any, str, dict[str, Any]]:
     """Fit and predict; returns ``(estimates or None, failure reason, timings)``."""
-    timings: dict[str, float] = {}
+    timings: dict[str, Any] = {}
     stage = "load"
     try:
         cls = resolve_estimator(run.estimator)
@@ -255,12 +256,15 @@ def _estimate(run: Run, results: Path, device: str, progress: bool, splits: dict
         stage, started = "predict", time.perf_counter()
         test = splits["test"]
         if run.segmentation == "ground-truth":
+            if not isinstance(estimator, SemanticEstimator):  # expand_runs gives the axis only to those
+                raise TypeError(f"{type(estimator).__name__} has no predict_semantic (segmentation ground-truth)")
             estimates = estimator.predict_semantic(test.semantics)
         else:
             estimates = estimator.predict(test.images)
         timings["predict_seconds"] = time.perf_counter() - started
-        if isinstance(getattr(estimator, "history", None), dict):  # per-epoch losses of the bundled models
-            timings["history"] = estimator.history
+        history = getattr(estimator, "history", None)
+        if isinstance(history, dict):  # per-epoch losses of the bundled models
+            timings["history"] = history
         return estimates, "", timings
     except Exception as error:  # an estimator's failure is a result, not a crash (module docstring)
         detail = "".join(traceback.format_exception_only(type(error), error)).strip()
@@ -325,19 +329,12 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str = "auto", sc
     results = Path(results)
     todo = [run for run in runs if not is_finished(results, run)]
     bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="runs", unit="run", disable=not progress)
-    if scheduler is None:
-        for run in todo:
-            bar.set_postfix_str(run.id)
-            execute_run(run, results, device, progress)
-            bar.update()
-    else:
-        from dask.distributed import Client, as_completed
-
-        with Client(scheduler) as client:
-            futures = client.map(execute_run, todo, results=str(results), device=device, progress=False, pure=False)
-            for future in as_completed(futures):
-                bar.set_postfix_str(Path(future.result()).name)
-                bar.update()
+    # Here: one run after another, with the estimators' own progress bars; on a cluster: none.
+    execute = functools.partial(execute_run, results=str(results), device=device,
+                                progress=progress and scheduler is None)
+    for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
+        bar.set_postfix_str(folder.name)
+        bar.update()
     bar.close()
     return collect_results(results)
 

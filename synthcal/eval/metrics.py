@@ -148,9 +148,9 @@ def semantic_iou(predicted: np.ndarray, target: np.ndarray, classes: Sequence[in
     confusion = np.bincount(
         predicted.ravel().astype(np.int64) * n + target.ravel(), minlength=n * n
     ).reshape(n, n)
-    classes = np.asarray(classes)
-    intersection = confusion[classes, classes]
-    union = confusion[classes].sum(1) + confusion[:, classes].sum(0) - intersection
+    ids = np.asarray(classes)
+    intersection = confusion[ids, ids]
+    union = confusion[ids].sum(1) + confusion[:, ids].sum(0) - intersection
     present = union > 0
     if not present.any():
         return 1.0
@@ -177,8 +177,12 @@ def iou(
         IoU in [0, 1]; 0 for a failed estimate.
     """
     H, _ = check_homography(H_est, image_size)
-    if H is None:
-        return 0.0
+    return 0.0 if H is None else _iou(scene_semantic, H, H_true, image_size, classes)
+
+
+def _iou(scene_semantic: np.ndarray, H: np.ndarray, H_true: np.ndarray, image_size: tuple[int, int],
+         classes: Sequence[int]) -> float:
+    """:func:`iou` of an estimate already checked and oriented by :func:`check_homography`."""
     predicted = render_semantic(scene_semantic, H, image_size)
     target = render_semantic(scene_semantic, np.asarray(H_true, np.float64), image_size)
     return semantic_iou(predicted, target, classes)
@@ -210,7 +214,7 @@ def _clip(polygon: np.ndarray, lines: np.ndarray) -> np.ndarray:
         side = polygon @ line[:2] + line[2]
         nxt_polygon, nxt_side = np.roll(polygon, -1, axis=0), np.roll(side, -1)
         clipped = []
-        for p, q, sp, sq in zip(polygon, nxt_polygon, side, nxt_side):
+        for p, q, sp, sq in zip(polygon, nxt_polygon, side, nxt_side, strict=True):
             if sp >= 0:
                 clipped.append(p)
             if (sp >= 0) != (sq >= 0):
@@ -265,8 +269,11 @@ def iou_part(
         IoU in [0, 1]; 0 for a failed estimate.
     """
     H, _ = check_homography(H_est, image_size)
-    if H is None:
-        return 0.0
+    return 0.0 if H is None else _iou_part(scene_shape, H, H_true, image_size)
+
+
+def _iou_part(scene_shape: tuple[int, ...], H: np.ndarray, H_true: np.ndarray, image_size: tuple[int, int]) -> float:
+    """:func:`iou_part` of an estimate already checked and oriented by :func:`check_homography`."""
     scene = _rectangle(-0.5, -0.5, scene_shape[1] - 0.5, scene_shape[0] - 0.5)
     cone = _image_cone(image_size)
     # Ground g is seen iff e · (H g) ≥ 0 for every row e: half-planes (e H) · g ≥ 0.
@@ -294,8 +301,11 @@ def iou_whole(
         IoU in [0, 1]; 0 for a failed estimate.
     """
     H, _ = check_homography(H_est, image_size)
-    if H is None:
-        return 0.0
+    return 0.0 if H is None else _iou_whole(H, H_true, image_size, canvas_scale)
+
+
+def _iou_whole(H: np.ndarray, H_true: np.ndarray, image_size: tuple[int, int], canvas_scale: float) -> float:
+    """:func:`iou_whole` of an estimate already checked and oriented by :func:`check_homography`."""
     width, height = image_size
     H_true = np.asarray(H_true, np.float64)
     cone = _image_cone(image_size)
@@ -368,7 +378,8 @@ def evaluate(
     if H_true_batch.ndim != 3 or H_true_batch.shape[1:] != (3, 3):
         raise ValueError(f"H_true_batch must be (B, 3, 3), got {H_true_batch.shape}")
     rows = []
-    for estimate, H_true in zip(_estimate_items(H_est_batch, len(H_true_batch)), H_true_batch):
+    # Each estimate is checked (SVD, orientation) once, then scored by every metric.
+    for estimate, H_true in zip(_estimate_items(H_est_batch, len(H_true_batch)), H_true_batch, strict=True):
         if isinstance(estimate, _BatchShapeError):
             H, reason = None, estimate.reason
         else:
@@ -377,9 +388,9 @@ def evaluate(
             rows.append((0.0, 0.0, 0.0, True, reason))
             continue
         rows.append((
-            iou(scene_semantic, H, H_true, image_size, classes),
-            iou_part(scene_semantic.shape, H, H_true, image_size),
-            iou_whole(H, H_true, image_size, canvas_scale),
+            _iou(scene_semantic, H, H_true, image_size, classes),
+            _iou_part(scene_semantic.shape, H, H_true, image_size),
+            _iou_whole(H, H_true, image_size, canvas_scale),
             False,
             "",
         ))

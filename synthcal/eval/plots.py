@@ -8,7 +8,10 @@
   (the estimate stored in the run's ``metrics.csv``, oriented and drawn with the
   generator's renderer), its IoU in the title. Nothing is re-run.
 
-Matplotlib with the Agg backend (no display needed).
+Figures are drawn on :class:`matplotlib.figure.Figure` objects and written with
+their own ``savefig`` (Agg for PNG): no pyplot, so no global figure state and no
+backend choice at import — callers that use pyplot keep theirs, and no display is
+needed.
 """
 
 from __future__ import annotations
@@ -16,18 +19,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from synthcal.data import read_scene  # noqa: E402
-from synthcal.eval.metrics import check_homography  # noqa: E402
-from synthcal.generate.render import render_semantic  # noqa: E402
-from synthcal.store import open_store, read_samples  # noqa: E402
-from synthcal.viz import overlay  # noqa: E402
+from synthcal.data import read_scene
+from synthcal.eval.metrics import check_homography
+from synthcal.generate.render import render_semantic
+from synthcal.store import open_store, read_samples
+from synthcal.viz import overlay
 
 __all__ = ["configuration_labels", "plot_iou", "plot_overlays"]
 
@@ -63,7 +63,8 @@ def plot_iou(runs: pd.DataFrame, path: str | Path, value: str = "iou") -> Path:
     datasets = list(dict.fromkeys(frame["dataset"]))
     configs = list(dict.fromkeys(frame["config"]))
     width = 0.8 / len(configs)
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.2 * len(datasets) * max(1, len(configs)) * 0.5), 4.0))
+    fig = Figure(figsize=(max(6.0, 1.2 * len(datasets) * max(1, len(configs)) * 0.5), 4.0))
+    ax = fig.subplots()
     for k, config in enumerate(configs):
         rows = [stats.loc[(d, config)] if (d, config) in stats.index else None for d in datasets]
         means = [np.nan if r is None else r["mean"] for r in rows]
@@ -79,7 +80,6 @@ def plot_iou(runs: pd.DataFrame, path: str | Path, value: str = "iou") -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
     return path
 
 
@@ -122,8 +122,8 @@ def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: s
     rows = np.linspace(0, len(first) - 1, min(count, len(first))).round().astype(int)
     samples = read_samples(open_store(store), first["pool_index"].to_numpy()[rows])
     height, width = samples["semantic"].shape[1:]
-    fig, axes = plt.subplots(len(rows), 1 + len(metrics), figsize=(2.6 * (1 + len(metrics)), 1.7 * len(rows)),
-                             squeeze=False)
+    fig = Figure(figsize=(2.6 * (1 + len(metrics)), 1.7 * len(rows)))
+    axes = fig.subplots(len(rows), 1 + len(metrics), squeeze=False)
     for i, row in enumerate(rows):
         image = samples["image"][i]
         axes[i, 0].imshow(overlay(image, samples["semantic"][i], scene.palette))
@@ -139,5 +139,4 @@ def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: s
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
     return path

@@ -167,13 +167,13 @@ def _with_paper(
     """Add a ``paper`` field to every cell of the grid, ours present or not."""
     paper = paper_results().drop_duplicates(list(KEYS))
     lookup = {tuple(map(str, key)): value
-              for key, value in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"])}
+              for key, value in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
     column_values = list(dict.fromkeys(table.columns.get_level_values(0)))
     out = {}
     for value in column_values:
         figures = []
         for row in table.index:
-            key = dict(constants, **dict(zip(varying, row if isinstance(row, tuple) else (row,))))
+            key = dict(constants, **dict(zip(varying, row if isinstance(row, tuple) else (row,), strict=True)))
             key[column_key] = value
             key["dataset"] = aliases.get(key["dataset"], key["dataset"])
             figures.append(lookup.get(tuple(key[k] for k in KEYS), np.nan))
@@ -265,7 +265,7 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
         means = np.array([round(row[(v, "mean")], 2) for v in column_values], dtype=float)
         best = np.nanmax(means) if np.isfinite(means).sum() >= 2 else np.nan
         cells, flags = list(shown), [False] * len(shown)
-        for value, mean in zip(column_values, means):
+        for value, mean in zip(column_values, means, strict=True):
             cells.append(_cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")]))
             flags.append(bool(mean == best))
             if compare:
@@ -324,14 +324,14 @@ def format_table(
             return f"**{cell}**" if strong else cell
         lines = ["| " + " | ".join(header) + " |",
                  "|" + "|".join([":---"] * n_keys + ["---:"] * (len(header) - n_keys)) + "|"]
-        lines += ["| " + " | ".join(md(c, b) for c, b in zip(cells, flags)) + " |"
-                  for cells, flags in zip(body, bold)]
+        lines += ["| " + " | ".join(md(c, b) for c, b in zip(cells, flags, strict=True)) + " |"
+                  for cells, flags in zip(body, bold, strict=True)]
         return "\n".join(lines) + "\n\n" + _caption(table) + "\n"
 
     def tex(cell: str, strong: bool) -> str:
         return rf"\textbf{{{_latex_escape(cell)}}}" if strong else _latex_escape(cell)
     lines = [rf"\begin{{tabular}}{{{'l' * n_keys}{'r' * (len(header) - n_keys)}}}", r"\hline",
              " & ".join(_latex_escape(h) for h in header) + r" \\", r"\hline"]
-    lines += [" & ".join(tex(c, b) for c, b in zip(cells, flags)) + r" \\" for cells, flags in zip(body, bold)]
+    lines += [" & ".join(tex(c, b) for c, b in zip(cells, flags, strict=True)) + r" \\" for cells, flags in zip(body, bold, strict=True)]
     lines += [r"\hline", r"\end{tabular}", "% " + _latex_escape(_caption(table))]
     return "\n".join(lines) + "\n"

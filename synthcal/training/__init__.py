@@ -4,13 +4,15 @@
 * :mod:`synthcal.training.cache` — trained stages on disk, built once;
 * :mod:`synthcal.training.stages` — UNet, Siamese, STN and end-to-end training.
 
-Imports :mod:`synthcal.models` and NumPy/PyTorch only.
+Imports :mod:`synthcal.models`, :mod:`synthcal.options` and NumPy/PyTorch only.
 """
 
 from synthcal.training.cache import StageCache, digest
 from synthcal.training.resolution import NUM_CLASSES, reduce_class_maps, reduce_images, resolution_matrix
 from synthcal.training.stages import (
+    MATCHING_SCORES,
     PAPER_END_TO_END_EPOCHS,
+    WARP_LOSS_NAMES,
     ClassMapLogits,
     TrainingData,
     composite_model,
@@ -28,6 +30,8 @@ from synthcal.training.stages import (
 __all__ = [
     "NUM_CLASSES",
     "PAPER_END_TO_END_EPOCHS",
+    "WARP_LOSS_NAMES",
+    "MATCHING_SCORES",
     "resolution_matrix",
     "reduce_class_maps",
     "reduce_images",

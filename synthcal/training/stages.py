@@ -37,8 +37,9 @@ Caching: :mod:`synthcal.training.cache`.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Iterator
+from typing import cast
 
 import numpy as np
 import torch
@@ -58,12 +59,13 @@ from synthcal.models import (
     warp_loss,
     warp_semantic,
 )
-
-
-from synthcal.training.resolution import NUM_CLASSES, _CHUNK, reduce_class_maps, reduce_images, resolution_matrix  # noqa: F401
+from synthcal.options import Loss, Matching
+from synthcal.training.resolution import NUM_CLASSES, resolution_matrix
 
 __all__ = [
     "PAPER_END_TO_END_EPOCHS",
+    "WARP_LOSS_NAMES",
+    "MATCHING_SCORES",
     "TrainingData",
     "reduce_scene",
     "composite_model",
@@ -80,6 +82,11 @@ __all__ = [
 
 # The paper's warm-up thresholds (20, 40) read as fractions of a 100-epoch schedule.
 PAPER_END_TO_END_EPOCHS = 100
+# The options' spellings (:mod:`synthcal.options`) → the names :mod:`synthcal.models` gives
+# its warp losses (:func:`synthcal.models.warp_loss`) and matching scores
+# (:func:`synthcal.models.match_ground_truth`).
+WARP_LOSS_NAMES: dict[Loss, str] = {"top-mse": "top_mse", "mse": "mse", "top-dice": "top_dice", "dice": "dice"}
+MATCHING_SCORES: dict[Matching, str] = {"top-mse": "top_mse", "mse": "mse"}
 
 
 # --- data ----------------------------------------------------------------------------------
@@ -167,6 +174,13 @@ def _float_images(images: Tensor, device: torch.device) -> Tensor:
     return images.to(device, non_blocking=True).float().div_(255.0)
 
 
+def _images(data: TrainingData, index: Tensor, device: torch.device) -> Tensor:
+    """(B, 3, h, w) float RGB in [0, 1] of train items ``index``, for a UNet."""
+    if data.images is None:
+        raise ValueError("TrainingData.images is None: a UNet needs the train images (segmentation 'unet')")
+    return _float_images(data.images[index], device)
+
+
 def input_maps(data: TrainingData, index: Tensor, unet: nn.Module | None, device: torch.device) -> Tensor:
     """(B, 4, h, w) maps the Siamese and STN read: UNet probabilities or true one-hot maps.
 
@@ -175,7 +189,7 @@ def input_maps(data: TrainingData, index: Tensor, unet: nn.Module | None, device
     if unet is None:
         return one_hot_maps(data.semantics[index].to(device), NUM_CLASSES)
     with torch.no_grad():
-        return unet(_float_images(data.images[index], device)).softmax(dim=1)
+        return unet(_images(data, index, device)).softmax(dim=1)
 
 
 def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tensor:
@@ -208,8 +222,7 @@ def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr:
     for _ in bar:
         losses: list[float] = []
         for index in _batches(len(data), batch_size, generator):
-            loss = segmentation_loss(unet(_float_images(data.images[index], device)),
-                                     data.semantics[index].to(device))
+            loss = segmentation_loss(unet(_images(data, index, device)), data.semantics[index].to(device))
             losses.append(_step(optimiser, loss))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
@@ -243,13 +256,13 @@ def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | Non
         for index in _batches(len(data), batch_size, generator):
             anchor = siamese(input_maps(data, index, unet, device))
             positive = data.match[index]
-            partners = [positive]
+            candidates = [positive]
             if n_templates > 1:
                 distance = torch.cdist(anchor.detach(), dictionary).cpu()
                 distance[torch.arange(len(index)), positive] = float("inf")
                 shift = torch.randint(1, n_templates, (len(index),), generator=generator)
-                partners += [distance.argmin(dim=1), (positive + shift) % n_templates]
-            partners = torch.cat(partners)
+                candidates += [distance.argmin(dim=1), (positive + shift) % n_templates]
+            partners = torch.cat(candidates)
             same = torch.zeros(len(partners), device=device)
             same[: len(index)] = 1.0
             embedded = siamese(_templates(data, partners, device))
@@ -260,7 +273,7 @@ def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | Non
     return siamese.eval()
 
 
-def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss_name: str, epochs: int,
+def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: Loss, epochs: int,
               batch_size: int, lr: float, device: torch.device, seed: int = 0, progress: bool = False,
               log: list[float] | None = None) -> nn.Module:
     """``L_warp`` training of an STN on (input map ⊕ ground-truth template). Returns it, trained."""
@@ -268,9 +281,9 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss_n
     generator = torch.Generator().manual_seed(seed)
     stn.to(device).train()
     optimiser = torch.optim.Adam(stn.parameters(), lr=lr)
-    criterion = warp_loss(loss_name)
+    criterion = warp_loss(WARP_LOSS_NAMES[loss])
     scene, frame = data.scene.to(device), data.scene_frame.to(device)
-    bar = _epochs(epochs, f"stn {loss_name}", progress)
+    bar = _epochs(epochs, f"stn {loss}", progress)
     for _ in bar:
         losses: list[float] = []
         for index in _batches(len(data), batch_size, generator):
@@ -279,8 +292,8 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss_n
             H = compose_homography(stn(maps), data.template_homographies[template].to(device), data.work_size)
             with torch.no_grad():
                 target = warp_semantic(scene, data.homographies[index].to(device) @ frame, data.work_size)
-            loss = criterion(warp_semantic(scene, H @ frame, data.work_size), target)
-            losses.append(_step(optimiser, loss))
+            value = criterion(warp_semantic(scene, H @ frame, data.work_size), target)
+            losses.append(_step(optimiser, value))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
     return stn.eval()
@@ -316,16 +329,18 @@ def end_to_end_stage(epoch: int, epochs: int, with_unet: bool = True) -> int:
     return int(p2) + epoch - t2
 
 
-def composite_model(unet: nn.Module, siamese: SiameseNet, stn: nn.Module, data: TrainingData,
-                    loss_name: str) -> CompositeModel:
+def composite_model(unet: UNet | ClassMapLogits, siamese: SiameseNet, stn: nn.Module, data: TrainingData,
+                    loss: Loss) -> CompositeModel:
     """:class:`CompositeModel` over the anti-aliased scene of the loss.
 
     Its templates' homographies are given in the reduced scene's frame
     (``A H_k D⁻¹``), so every homography it composes is too, and its scene is the
     soft reduced map. Used for training only; estimates come from :func:`estimate`.
     """
-    return CompositeModel(unet, siamese, stn, data.scene.clone(), data.templates,
-                          data.template_homographies @ data.scene_frame, NUM_CLASSES, loss_name.replace("-", "_"))
+    # CompositeModel only calls its ``unet`` for logits; ClassMapLogits (true maps) serves as well,
+    # though synthcal.models annotates the argument as UNet.
+    return CompositeModel(cast(UNet, unet), siamese, stn, data.scene.clone(), data.templates,
+                          data.template_homographies @ data.scene_frame, NUM_CLASSES, WARP_LOSS_NAMES[loss])
 
 
 def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool, epochs: int, batch_size: int,
@@ -348,8 +363,7 @@ def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool,
         model.refresh_dictionary_embeddings()
         for index in _batches(len(data), batch_size, generator):
             semantics = data.semantics[index].to(device)
-            inputs = (_float_images(data.images[index], device) if with_unet
-                      else one_hot_maps(semantics, NUM_CLASSES))
+            inputs = _images(data, index, device) if with_unet else one_hot_maps(semantics, NUM_CLASSES)
             loss, terms = model.training_loss(inputs, semantics, data.match[index].to(device), stage)
             losses.append(_step(optimiser, loss))
             bar.set_postfix(stage=stage, **{k: f"{v:.4f}" for k, v in terms.items()})

@@ -20,8 +20,9 @@ def spec():
 
 
 @pytest.fixture(scope="module")
-def reference(spec, tmp_path_factory) -> Path:
-    return generate_dataset(spec, tmp_path_factory.mktemp("reference"), workers=1, progress=False)
+def reference(smoke_stores, tmp_path_factory) -> Path:
+    """intersection-2 generated with one worker (a copy: one test generates into its folder)."""
+    return smoke_stores.copy(["intersection-2"], tmp_path_factory.mktemp("reference"))["intersection-2"]
 
 
 def store_files(store: Path) -> dict[str, bytes]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import zlib
+from itertools import pairwise
 
 import pytest
 import torch
@@ -44,8 +45,8 @@ def _slow_top(p: torch.Tensor, t: torch.Tensor, ell, rows: int = 4, cols: int = 
               alpha: float = 0.3, beta: float = 0.3) -> float:
     """p, t: (C, H, W); patches by torch.tensor_split, neighbours by explicit loops."""
     patch = [[0.0] * cols for _ in range(rows)]
-    for i, (pr, tr) in enumerate(zip(torch.tensor_split(p, rows, 1), torch.tensor_split(t, rows, 1))):
-        for j, (pp, tp) in enumerate(zip(torch.tensor_split(pr, cols, 2), torch.tensor_split(tr, cols, 2))):
+    for i, (pr, tr) in enumerate(zip(torch.tensor_split(p, rows, 1), torch.tensor_split(t, rows, 1), strict=True)):
+        for j, (pp, tp) in enumerate(zip(torch.tensor_split(pr, cols, 2), torch.tensor_split(tr, cols, 2), strict=True)):
             patch[i][j] = ell(pp, tp)
     total = 0.0
     for i in range(rows):
@@ -149,7 +150,7 @@ def test_patch_bounds_follow_tensor_split():
     for length in (7, 16, 18, 30, 144, 256):
         sizes = [len(part) for part in torch.tensor_split(torch.arange(length), 4)]
         bounds = patch_bounds(length, 4)
-        assert [b - a for a, b in zip(bounds[:-1], bounds[1:])] == sizes
+        assert [b - a for a, b in pairwise(bounds)] == sizes
 
 
 def test_warp_loss_names():

@@ -5,7 +5,14 @@ import numpy as np
 
 from synthcal.generate.camera import homography
 from synthcal.generate.render import (
-    Appearance, apply_appearance, apply_appearance_on_ground, ground_rows, mask_invisible, render_image, render_semantic, visible_mask,
+    Appearance,
+    apply_appearance,
+    apply_appearance_on_ground,
+    ground_rows,
+    mask_invisible,
+    render_image,
+    render_semantic,
+    visible_mask,
 )
 
 SIZE = (64, 36)
@@ -38,7 +45,7 @@ def test_scene_edge_is_background_beyond():
     view = render_semantic(scene, H, SIZE)
     # Independent ground truth: the ground point of each pixel centre by ray casting.
     K = np.array([[40.0, 0, 31.5], [0, 40.0, 17.5], [0, 0, 1]])
-    pan, tilt = 0.0, np.deg2rad(-25.0)
+    tilt = np.deg2rad(-25.0)  # pan 0: the camera looks along +x
     right, view_dir = np.array([0.0, 1, 0]), np.array([np.cos(tilt), 0, -np.sin(tilt)])
     down = np.cross(view_dir, right)
     ys, xs = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
@@ -107,8 +114,8 @@ def _random_cameras(rng: np.random.Generator, count: int) -> np.ndarray:
     """Cameras at (150, 200) over a 300 × 400 scene, some seeing the horizon, some rolled."""
     cameras = []
     for k in range(count):
-        H = homography([rng.uniform(-180, 180)], [rng.uniform(-30, 5)], [rng.uniform(20, 100)],
-                       [[150.0, 200.0, rng.uniform(20, 80)]], SIZE)[0]
+        H = homography(np.array([rng.uniform(-180, 180)]), np.array([rng.uniform(-30, 5)]),
+                       np.array([rng.uniform(20, 100)]), np.array([[150.0, 200.0, rng.uniform(20, 80)]]), SIZE)[0]
         roll = rng.uniform(-0.5, 0.5) if k % 2 else 0.0
         cameras.append(np.array([[np.cos(roll), -np.sin(roll), 0], [np.sin(roll), np.cos(roll), 0], [0, 0, 1]]) @ H)
     return np.array(cameras)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-import time
+from itertools import pairwise
 
 import cv2
 import numpy as np
@@ -12,9 +12,16 @@ import pytest
 
 from synthcal.generate.camera import homography
 from synthcal.generate.render import render_semantic
-from synthcal.generate.scenes import (BUILTIN_SCENES, Scene, SceneError, build_scene, colorize, draw_scene,
-                                      load_user_scene)
-from synthcal.generate.scenes import soccer
+from synthcal.generate.scenes import (
+    BUILTIN_SCENES,
+    Scene,
+    SceneError,
+    build_scene,
+    colorize,
+    draw_scene,
+    load_user_scene,
+    soccer,
+)
 
 INTERSECTIONS = [f"intersection-{k}" for k in range(1, 6)]
 
@@ -57,19 +64,19 @@ def test_builtin_names_and_unknown_name():
 
 
 @pytest.mark.parametrize("name", list(BUILTIN_SCENES))
-def test_builtin_deterministic_read_only_and_fast(name):
+def test_builtin_deterministic_read_only_and_cached(name):
+    """Built once per process (its speed is measured in benchmarks/scenes.py, not here)."""
     first = build_scene(name)
+    hits = build_scene.cache_info().hits
     assert build_scene(name) is first  # cached per process
-    start = time.perf_counter()
+    assert build_scene.cache_info().hits == hits + 1
     second = build_scene.__wrapped__(name)  # the same build, bypassing the cache
-    elapsed = time.perf_counter() - start
     assert second is not first
     assert np.array_equal(first.image, second.image) and np.array_equal(first.semantic, second.semantic)
     for array in (second.image, second.semantic):
         assert not array.flags.writeable
         with pytest.raises(ValueError):
             array[0, 0] = 1
-    assert elapsed < 2.0, f"{name} took {elapsed:.2f} s"
 
 
 @pytest.mark.parametrize("name", list(BUILTIN_SCENES))
@@ -117,7 +124,7 @@ def test_intersection_size_classes_and_centre(name):
 def test_intersection_complexity_rises():
     semantics = [build_scene(name).semantic for name in INTERSECTIONS]
     boundaries = [_boundary(s) for s in semantics]
-    assert all(a < b for a, b in zip(boundaries, boundaries[1:])), boundaries
+    assert all(a < b for a, b in pairwise(boundaries)), boundaries
     assert boundaries[4] > 2 * boundaries[0], boundaries  # 5 is *much* more complex than 1
     # 1 and 2 are similar plain crossings: four road legs at the border, one carriageway each
     assert _border_runs(semantics[0] == 1) == 4 and _border_runs(semantics[1] == 1) == 4

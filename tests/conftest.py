@@ -1,0 +1,62 @@
+"""Fixtures shared by the test modules: the bundled configuration and smoke stores.
+
+Generating a store is the slow part of many tests, and several modules need the
+same ones (the five intersections at smoke size). They are generated once per
+session, on first request, into one folder under the session's temporary
+directory. Modules never use these pristine stores directly: each takes copies
+(:meth:`SmokeStores.copy`) and draws its own splits into them, so a test that
+writes into a store (splits, resume, damage) cannot change what another sees.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Iterable
+from pathlib import Path
+
+import pytest
+
+from synthcal.config import LoadedConfig, load_config
+from synthcal.generate.pipeline import generate_dataset
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class SmokeStores:
+    """Pristine smoke stores of the bundled configuration, generated on first request.
+
+    Every store is generated with one worker (``tests/test_generate.py`` compares
+    other worker counts against it) and never written to afterwards.
+    """
+
+    def __init__(self, config: LoadedConfig, root: Path) -> None:
+        self.config = config
+        self.root = root
+
+    def path(self, name: str) -> Path:
+        """``ROOT/NAME.zarr``, generated now if this session has not made it yet. Read only."""
+        store = self.root / f"{name}.zarr"
+        if not store.exists():
+            generate_dataset(self.config.resolve(name, "smoke"), self.root, workers=1, progress=False)
+        return store
+
+    def copy(self, names: Iterable[str], out: Path) -> dict[str, Path]:
+        """Copies of the named stores side by side in ``out`` (where mixed dictionaries look for their sources).
+
+        Returns:
+            dataset name → path of its copy, ``out/NAME.zarr``.
+        """
+        out.mkdir(parents=True, exist_ok=True)
+        return {name: Path(shutil.copytree(self.path(name), out / f"{name}.zarr")) for name in names}
+
+
+@pytest.fixture(scope="session")
+def smoke_config() -> LoadedConfig:
+    """The bundled ``datasets.yaml``."""
+    return load_config(ROOT / "datasets.yaml")
+
+
+@pytest.fixture(scope="session")
+def smoke_stores(smoke_config: LoadedConfig, tmp_path_factory: pytest.TempPathFactory) -> SmokeStores:
+    """The session's pristine smoke stores; take copies with ``smoke_stores.copy(names, folder)``."""
+    return SmokeStores(smoke_config, tmp_path_factory.mktemp("smoke-stores"))

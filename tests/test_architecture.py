@@ -1,0 +1,283 @@
+"""The import architecture: which package of synthcal may import which (issue 13).
+
+Every module under ``synthcal/`` is parsed (not imported) and each of its imports of
+synthcal — at module level, inside functions, under ``TYPE_CHECKING``, absolute or
+relative (``from . import x``, ``from ..generate import render``) — is checked
+against :data:`CONTRACT`. A failure lists every offending import with its file and
+line. The packages must also form no import cycle.
+
+The contract, package by package (a package may always import its own modules):
+
+* ``config``, ``models``, ``utils`` import nothing of synthcal;
+* ``options`` (the option vocabularies) imports nothing of synthcal and any package
+  may import it: a leaf adds no dependency between packages;
+* ``store`` → config, utils; ``generate`` → config, store, utils; ``data`` → config, store;
+* ``training`` → models, data, store, config, utils;
+* ``estimators`` → models, data, store, training, config, utils;
+* ``eval`` → estimators, data, store, config, utils, viz, and of ``generate`` only
+  the renderer, the camera and the scenes (``generate.render``, ``generate.camera``,
+  ``generate.scenes``, for the colours);
+* ``viz`` → ``generate.scenes`` only;
+* ``cli`` → anything;
+* the top-level ``synthcal/__init__.py`` imports nothing of synthcal.
+"""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TOP = "synthcal"
+
+LEAF = "options"  # importable by every package, imports nothing
+TOP_LEVEL = ""  # the package name of the top-level __init__.py
+
+
+@dataclass(frozen=True)
+class Rule:
+    """What one package may import: whole packages, and of some packages only some modules."""
+
+    packages: frozenset[str] = frozenset()
+    only: Mapping[str, tuple[str, ...]] | None = None  # package → the module paths allowed in it (and below)
+    anything: bool = False
+
+
+CONTRACT: dict[str, Rule] = {
+    TOP_LEVEL: Rule(),
+    "config": Rule(),
+    "models": Rule(),
+    "utils": Rule(),
+    LEAF: Rule(),
+    "store": Rule(frozenset({"config", "utils"})),
+    "generate": Rule(frozenset({"config", "store", "utils"})),
+    "data": Rule(frozenset({"config", "store"})),
+    "training": Rule(frozenset({"models", "data", "store", "config", "utils"})),
+    "estimators": Rule(frozenset({"models", "data", "store", "training", "config", "utils"})),
+    "eval": Rule(frozenset({"estimators", "data", "store", "config", "utils", "viz", "generate"}),
+                 only={"generate": ("generate.render", "generate.camera", "generate.scenes")}),
+    "viz": Rule(frozenset({"generate"}), only={"generate": ("generate.scenes",)}),
+    "cli": Rule(anything=True),
+}
+
+
+@dataclass(frozen=True)
+class Import:
+    """One import of the top package found in a source file."""
+
+    file: Path  # relative to the folder holding the top package
+    line: int
+    importer: str  # dotted module name, e.g. "synthcal.eval.metrics"
+    target: str  # dotted module imported, e.g. "synthcal.generate.render"
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}: {self.importer} imports {self.target}"
+
+
+def module_name(path: Path, root: Path) -> str:
+    """``root/synthcal/eval/metrics.py`` → ``synthcal.eval.metrics``; a package's ``__init__.py`` → the package."""
+    parts = path.relative_to(root).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def is_module(name: str, root: Path) -> bool:
+    """Whether the dotted ``name`` is a module or package in the tree under ``root``."""
+    path = root.joinpath(*name.split("."))
+    return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
+
+
+def imports_in(path: Path, root: Path, top: str) -> Iterator[Import]:
+    """Every import of ``top`` or its modules in one source file, at any depth of its syntax tree.
+
+    ``from PACKAGE import NAME`` counts as an import of ``PACKAGE.NAME`` when that is a
+    module, else of ``PACKAGE`` (whose ``__init__`` runs either way).
+    """
+    importer = module_name(path, root)
+    package = importer if path.name == "__init__.py" else importer.rpartition(".")[0]
+    relative = path.relative_to(root)
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                parts = package.split(".")
+                base = ".".join(parts[:len(parts) - node.level + 1] + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            targets = [f"{base}.{alias.name}" if is_module(f"{base}.{alias.name}", root) else base
+                       for alias in node.names]
+        else:
+            continue
+        for target in targets:
+            if target == top or target.startswith(top + "."):
+                yield Import(relative, node.lineno, importer, target)
+
+
+def all_imports(root: Path, top: str) -> list[Import]:
+    """The imports of ``top`` in every module of the package ``root/top``, sorted by file and line."""
+    found = [imp for path in sorted((root / top).rglob("*.py")) for imp in imports_in(path, root, top)]
+    return sorted(found, key=lambda imp: (str(imp.file), imp.line, imp.target))
+
+
+def package_of(module: str) -> str:
+    """``synthcal.eval.metrics`` → ``eval``; ``synthcal.config`` → ``config``; ``synthcal`` → ``""``."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else TOP_LEVEL
+
+
+def violations(imports: list[Import], contract: Mapping[str, Rule]) -> list[str]:
+    """One line per import that breaks ``contract``: file, line, what it imports and why it may not."""
+    found = []
+    for imp in imports:
+        source, target = package_of(imp.importer), package_of(imp.target)
+        rule = contract.get(source)
+        if rule is None:
+            found.append(f"{imp}: package {source!r} is not in the contract")
+            continue
+        if rule.anything:
+            continue
+        if source != TOP_LEVEL and target in (source, LEAF, TOP_LEVEL):  # its own modules, the leaf
+            continue
+        if target not in rule.packages:
+            allowed = ", ".join(sorted(rule.packages)) or "nothing of synthcal"
+            who = source if source != TOP_LEVEL else f"{imp.importer}/__init__.py"
+            found.append(f"{imp}: {who} may import {allowed}" + (f" (and {LEAF})" if source != TOP_LEVEL else ""))
+            continue
+        modules = (rule.only or {}).get(target)
+        inside = imp.target.split(".", 1)[1]
+        if modules is not None and not any(inside == m or inside.startswith(m + ".") for m in modules):
+            found.append(f"{imp}: {source} may import of {target} only {', '.join(modules)}")
+    return found
+
+
+def package_graph(imports: list[Import]) -> dict[str, dict[str, Import]]:
+    """Package → package it imports → the first import that does it (self-imports and the top level left out)."""
+    graph: dict[str, dict[str, Import]] = {}
+    for imp in imports:
+        source, target = package_of(imp.importer), package_of(imp.target)
+        if source != target and TOP_LEVEL not in (source, target):
+            graph.setdefault(source, {}).setdefault(target, imp)
+    return graph
+
+
+def package_cycles(imports: list[Import]) -> list[list[str]]:
+    """The import cycles between packages: each strongly connected group of two or more, sorted."""
+    graph = package_graph(imports)
+    nodes = sorted(set(graph) | {t for targets in graph.values() for t in targets})
+    reach = {n: set(graph.get(n, {})) for n in nodes}
+    changed = True
+    while changed:  # transitive closure: a dozen packages, no need for Tarjan
+        changed = False
+        for n in nodes:
+            more = set().union(*(reach[m] for m in reach[n])) - reach[n] if reach[n] else set()
+            if more:
+                reach[n] |= more
+                changed = True
+    groups = {frozenset([n] + [m for m in nodes if m != n and m in reach[n] and n in reach[m]]) for n in nodes}
+    return sorted(sorted(g) for g in groups if len(g) > 1)
+
+
+def describe_cycles(imports: list[Import]) -> list[str]:
+    """Each cycle with one import per edge inside it."""
+    graph = package_graph(imports)
+    lines = []
+    for group in package_cycles(imports):
+        lines.append(" ↔ ".join(group))
+        lines += [f"    {graph[a][b]}" for a in group for b in group if b in graph.get(a, {})]
+    return lines
+
+
+# --- the real tree ------------------------------------------------------------------------------
+
+
+def test_imports_follow_the_contract():
+    imports = all_imports(ROOT, TOP)
+    assert len(imports) > 50, "the parser found suspiciously few imports of synthcal"
+    packages = {package_of(imp.importer) for imp in imports} | {package_of(imp.target) for imp in imports}
+    assert {"config", "store", "generate", "data", "training", "estimators", "eval", "cli"} <= packages
+    found = violations(imports, CONTRACT)
+    assert not found, "imports that break the architecture (tests/test_architecture.py):\n" + "\n".join(found)
+
+
+def test_no_import_cycle_between_packages():
+    imports = all_imports(ROOT, TOP)
+    assert not package_cycles(imports), "import cycles between packages:\n" + "\n".join(describe_cycles(imports))
+
+
+def test_the_contract_itself_has_no_cycle():
+    # Imports of every allowed pair: the contract must not permit a cycle either.
+    allowed = [Import(Path("contract"), 0, f"{TOP}.{source}", f"{TOP}.{target}")
+               for source, rule in CONTRACT.items() if source != TOP_LEVEL and not rule.anything
+               for target in rule.packages]
+    assert not package_cycles(allowed)
+
+
+# --- the checker on a fake package ----------------------------------------------------------------
+
+
+def write_tree(root: Path, files: dict[str, str]) -> None:
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+
+
+FAKE = {
+    "fake/__init__.py": "",
+    "fake/options.py": "",
+    "fake/config.py": "import os\n\nfrom fake.options import X\n\n\ndef late():\n    from .generate.grid import g\n",
+    "fake/store/__init__.py": "from . import format\nfrom .format import open_store\n",
+    "fake/store/format.py": "from fake.config import C\nimport fake.utils\n",
+    "fake/utils.py": "",
+    "fake/generate/__init__.py": "",
+    "fake/generate/grid.py": "from fake.config import C\n",
+    "fake/generate/render.py": "",
+    "fake/generate/pipeline.py": "from fake.store import open_store\n",
+    "fake/generate/scenes/__init__.py": "from .soccer import pitch\n",
+    "fake/generate/scenes/soccer.py": "",
+    "fake/models/__init__.py": "import torch\n\n\ndef f():\n    if True:\n        from fake.store import format\n",
+    "fake/eval/__init__.py": "",
+    "fake/eval/metrics.py": ("from ..generate.render import r\nfrom ..generate.scenes.soccer import s\n"
+                             "from ..generate import pipeline\nfrom fake.generate import camera_helper\n"),
+    "fake/viz.py": "from fake.generate.scenes import colorize\n",
+    "fake/cli.py": "from fake.generate.pipeline import generate\nfrom fake.eval import metrics\n",
+    "fake/plugins/__init__.py": "",
+}
+
+
+def test_checker_reports_forbidden_imports_with_file_and_line(tmp_path):
+    write_tree(tmp_path, FAKE)
+    imports = all_imports(tmp_path, "fake")
+    found = violations(imports, CONTRACT)
+    expected = [
+        "fake/config.py:7: fake.config imports fake.generate.grid",  # function level, relative
+        "fake/eval/metrics.py:3: fake.eval.metrics imports fake.generate.pipeline",  # from .. import module
+        "fake/eval/metrics.py:4: fake.eval.metrics imports fake.generate",  # a name of generate/__init__
+        "fake/models/__init__.py:6: fake.models imports fake.store.format",  # nested in a function and an if
+    ]
+    assert [line.rsplit(": ", 1)[0] for line in found] == expected, "\n".join(found)
+    assert "only generate.render, generate.camera, generate.scenes" in found[1]
+    assert "models may import nothing of synthcal" in found[3]
+
+
+def test_checker_parses_relative_and_function_level_imports(tmp_path):
+    write_tree(tmp_path, FAKE)
+    targets = {(imp.importer, imp.target) for imp in all_imports(tmp_path, "fake")}
+    assert ("fake.store", "fake.store.format") in targets  # from . import format
+    assert ("fake.generate.scenes", "fake.generate.scenes.soccer") in targets  # from .soccer import pitch
+    assert ("fake.eval.metrics", "fake.generate.scenes.soccer") in targets  # from ..generate.scenes.soccer import s
+    assert ("fake.store.format", "fake.utils") in targets  # import fake.utils
+    assert not any(t.startswith(("os", "torch")) for _, t in targets)
+
+
+def test_checker_reports_cycles_and_unknown_packages(tmp_path):
+    write_tree(tmp_path, FAKE)
+    imports = all_imports(tmp_path, "fake")
+    assert package_cycles(imports) == [["config", "generate", "store"]]  # config → generate → store → config
+    assert any("fake/config.py:7" in line for line in describe_cycles(imports))
+    write_tree(tmp_path, {"fake/plugins/__init__.py": "from fake import config\n"})
+    found = violations(all_imports(tmp_path, "fake"), CONTRACT)
+    assert any(line.startswith("fake/plugins/__init__.py:1: fake.plugins imports fake.config: package 'plugins'")
+               for line in found), found

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import torch
@@ -79,17 +79,18 @@ def bench_matching(n_queries: int, n_templates: int, sub_queries: int, sub_templ
     onehot_q = _Encoded(one_hot_maps(queries[:chunk]), GRID, 4)
     for score, loss in (("mse", mse_loss), ("top_mse", top_mse_loss)):
         match_ground_truth(queries[:8], templates[:8], score)  # warm-up
-        fast = seconds(lambda: match_ground_truth(queries, templates, score))
+        fast = seconds(lambda score=score: match_ground_truth(queries, templates, score))
         subset_q = one_hot_maps(queries[:sub_queries])
         subset_t = one_hot_maps(templates[:sub_templates])
 
-        def brute() -> torch.Tensor:
+        def brute(loss: Callable = loss, subset_q: torch.Tensor = subset_q,
+                  subset_t: torch.Tensor = subset_t) -> torch.Tensor:
             return torch.tensor([[float(loss(q[None], t[None], reduction="none")) for t in subset_t]
                                  for q in subset_q]).argmin(1)
 
         brute_pair = seconds(brute, repeat=2) / (sub_queries * sub_templates)
         agree = torch.equal(brute(), match_ground_truth(queries[:sub_queries], templates[:sub_templates], score).index)
-        onehot = seconds(lambda: _scores(onehot_q, onehot_t, score, GRID, (HEIGHT, WIDTH), ALPHA, BETA))
+        onehot = seconds(lambda score=score: _scores(onehot_q, onehot_t, score, GRID, (HEIGHT, WIDTH), ALPHA, BETA))
         fast_pair = fast / pairs
         print(f"{score:8s} GEMM {fast:6.2f} s = {fast_pair * 1e6:5.3f} us/pair | brute-force loop "
               f"{brute_pair * 1e6:6.1f} us/pair (on {sub_queries}x{sub_templates}; all pairs: "

@@ -10,8 +10,9 @@ import argparse
 import json
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -69,7 +70,7 @@ def _cmd_generate(args: argparse.Namespace) -> None:
         from synthcal.generate.splits import draw_splits
 
         # After every store is in, so that sources generated in the same run are found.
-        for spec, path in zip(specs, paths):
+        for spec, path in zip(specs, paths, strict=True):
             _print_draw(draw_splits(path, spec.split_seeds, spec.splits, spec.mixed_sources))
 
 
@@ -107,7 +108,7 @@ def parse_seeds(text: str) -> tuple[int, ...]:
     return tuple(sorted(seeds))
 
 
-def _print_draw(result: "DrawResult") -> None:
+def _print_draw(result: DrawResult) -> None:
     """One line per store drawn by ``split`` / ``generate --splits``."""
     drawn = ", ".join(map(str, result.drawn)) or "none"
     unchanged = f"; unchanged: {', '.join(map(str, result.unchanged))}" if result.unchanged else ""
@@ -134,8 +135,13 @@ def _cmd_split(args: argparse.Namespace) -> None:
 def _cmd_worldcup_stats(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import load_scene
-    from synthcal.generate.worldcup import (bird_eye_to_pitch, camera_fields, convert_homographies, in_grid,
-                                            load_worldcup_poses)
+    from synthcal.generate.worldcup import (
+        bird_eye_to_pitch,
+        camera_fields,
+        convert_homographies,
+        in_grid,
+        load_worldcup_poses,
+    )
 
     config = load_config(args.config)
     spec = config.resolve("worldcup2014")
@@ -176,10 +182,10 @@ def _cmd_worldcup_stats(args: argparse.Namespace) -> None:
 
 
 def _cmd_info(args: argparse.Namespace) -> None:
-    from synthcal.store import open_store
+    from synthcal.store import array_at, attributes, open_store
 
     group = open_store(args.store, allow_incomplete=True)
-    attrs = dict(group.attrs)
+    attrs = attributes(group)
     if args.json:
         print(json.dumps(attrs, indent=2))
         return
@@ -189,7 +195,8 @@ def _cmd_info(args: argparse.Namespace) -> None:
     print(f"dataset      {attrs['dataset']}  ({attrs['format_version']})")
     print(f"samples      {attrs['N']} at {width} × {height}, {attrs['shard_size']} per shard, seed {attrs['seed']}")
     print(f"scene        {scene['name']}: {', '.join(f'{i} {c}' for i, c in enumerate(scene['classes']))}")
-    print(f"scene size   {group['scene/semantic'].shape[1]} × {group['scene/semantic'].shape[0]} px, "
+    scene_height, scene_width = array_at(group, "scene/semantic").shape
+    print(f"scene size   {scene_width} × {scene_height} px, "
           f"heading {scene['heading_deg']:g}°")
     for axis, values in (attrs["grid"] or {}).items():
         if isinstance(values, dict):
@@ -202,28 +209,32 @@ def _cmd_info(args: argparse.Namespace) -> None:
     _print_splits(group)
 
 
-def _print_splits(group: "zarr.Group") -> None:
+def _print_splits(group: zarr.Group) -> None:
+    from synthcal.store import array_at, attributes, group_at
     from synthcal.store.splits import drawn_seeds
 
     for seed in drawn_seeds(group):
-        sub = group[f"splits/seed-{seed}"]
-        sizes = ", ".join(f"{name} {sub[name].shape[0]}" for name in ("train", "test", "dictionary") if name in sub)
+        sub = group_at(group, f"splits/seed-{seed}")
+        sizes = ", ".join(f"{name} {array_at(sub, name).shape[0]}"
+                          for name in ("train", "test", "dictionary") if name in sub)
         mixed = ""
         if "mixed_dictionary" in sub:
-            mixed = f", mixed dictionary {sub['mixed_dictionary/index'].shape[0]} from " \
-                    f"{', '.join(sub['mixed_dictionary'].attrs['sources'])}"
+            sources = attributes(group_at(sub, "mixed_dictionary"))["sources"]
+            mixed = (f", mixed dictionary {array_at(sub, 'mixed_dictionary/index').shape[0]} from "
+                     f"{', '.join(sources)}")
         print(f"split seed {seed} {sizes}{mixed}")
 
 
 def _cmd_show(args: argparse.Namespace) -> None:
-    from synthcal.store import open_store, read_samples
+    from synthcal.store import attributes, open_store, read_samples
     from synthcal.viz import sample_strip, tile, write_png
 
     group = open_store(args.store)
-    count = min(args.n, group["image"].shape[0])
-    index = np.linspace(0, group["image"].shape[0] - 1, count).round().astype(np.int64)
+    size = attributes(group)["N"]
+    count = min(args.n, size)
+    index = np.linspace(0, size - 1, count).round().astype(np.int64)
     samples = read_samples(group, index)
-    palette = group.attrs["scene"]["palette"]
+    palette = attributes(group)["scene"]["palette"]
     strips = [sample_strip(samples["image"][k], samples["semantic"][k], palette) for k in range(count)]
     print(write_png(args.output, tile(strips, columns=args.columns)))
 
@@ -231,7 +242,7 @@ def _cmd_show(args: argparse.Namespace) -> None:
 def _cmd_demo(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import generate_dataset
-    from synthcal.store import open_store, read_samples
+    from synthcal.store import attributes, open_store, read_samples
     from synthcal.viz import sample_strip, tile, write_png
 
     config = load_config(args.config)
@@ -247,7 +258,7 @@ def _cmd_demo(args: argparse.Namespace) -> None:
         print(f"  {name:16s} {spec.pool_size:6d} samples  {time.perf_counter() - started:6.1f} s  "
               f"{size / spec.pool_size / 1024:6.1f} KiB/sample  {path}")
         samples = read_samples(group, np.arange(2))
-        palette = group.attrs["scene"]["palette"]
+        palette = attributes(group)["scene"]["palette"]
         strips += [sample_strip(samples["image"][k], samples["semantic"][k], palette) for k in range(2)]
     montage = write_png(out / "montage.png", tile(strips, columns=2))
     print(f"montage: {montage}  (per scene two samples: image | semantic map | overlay)")
@@ -263,7 +274,7 @@ DEMO_ESTIMATORS = ("identity", "template", "baseline", "proposed")
 DEMO_SEEDS = "0-4"
 
 
-def _demo_bench(args: argparse.Namespace, config: "LoadedConfig", out: Path) -> None:
+def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> None:
     from synthcal.eval.harness import expand_runs, run_sweep
     from synthcal.generate.pipeline import store_path
     from synthcal.generate.splits import draw_splits
@@ -282,7 +293,7 @@ def _demo_bench(args: argparse.Namespace, config: "LoadedConfig", out: Path) -> 
     _print_tables(frame, None, "md", False)
 
 
-def _print_tables(frame: "pd.DataFrame", layout: str | None, fmt: str, compare_paper: bool) -> None:
+def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool) -> None:
     """Print the tables of a results frame, one per segmentation / profile in it.
 
     ``layout`` None picks ``models`` for own-dictionary datasets and ``mixed`` for
@@ -307,7 +318,7 @@ def _print_tables(frame: "pd.DataFrame", layout: str | None, fmt: str, compare_p
                 raise _UserError(f"table {name!r}: {error}") from None
 
 
-def _split_by(frame: "pd.DataFrame", keys: Sequence[str]) -> list[tuple[str, "pd.DataFrame"]]:
+def _split_by(frame: pd.DataFrame, keys: Sequence[str]) -> list[tuple[str, pd.DataFrame]]:
     """Parts of ``frame`` with one value of each key; rows where a key is missing join every part."""
     parts = [("", frame)]
     for key in keys:

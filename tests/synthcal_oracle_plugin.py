@@ -30,7 +30,7 @@ class OracleEstimator:
     def fit(self, train: Any, dictionary: Any, scene: Any) -> None:
         group = zarr.open_group(str(train.store), mode="r")
         images, homographies = group["image"][:], group["homography"][:]
-        self.lookup = {_key(image): H for image, H in zip(images, homographies)}
+        self.lookup = {_key(image): H for image, H in zip(images, homographies, strict=True)}
 
     def predict(self, images: np.ndarray) -> np.ndarray:
         missing = np.full((3, 3), np.nan)

@@ -1,2 +1,9 @@
 """synthcal: synthetic PTZ-camera datasets and a harness for homography estimation."""
-__version__ = "0.1.0"
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    # The version lives in one place, pyproject.toml; the installed metadata carries it.
+    __version__ = version("synthcal")
+except PackageNotFoundError:  # imported from a source tree that was never installed
+    __version__ = "unknown"

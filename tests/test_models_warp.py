@@ -154,3 +154,38 @@ def test_optimising_h_bar_recovers_the_view(loss):
     loss_after, iou_after = evaluate()
     assert loss_after < 0.7 * loss_before
     assert iou_after > iou_before + 0.1
+
+
+# --- an independent implementation of the same warp -------------------------------
+
+def test_bilinear_is_kornias_warp_perspective_with_the_mask():
+    """The bilinear warp is kornia's warp_perspective times the cheirality mask, values
+    and dH, in float64. kornia takes H as source (bird's-eye) → destination (image)
+    pixels and inverts it, dsize as (h, w); zero padding. Its normalisation follows its
+    own align_corners, so either value gives the same pixel mapping."""
+    from kornia.geometry.transform import warp_perspective
+
+    rng = np.random.default_rng(1)
+    n = 24
+    Hs = torch.from_numpy(homography(
+        rng.uniform(-180, 180, n), rng.uniform(-45, 0, n), rng.uniform(15, 80, n),
+        np.stack([rng.uniform(-50, 350, n), rng.uniform(-50, 250, n), rng.uniform(5, 100, n)], 1), IMAGE))
+    mask = cheirality_mask(Hs, IMAGE)
+    assert 0.3 < mask.double().mean() < 0.99  # horizons in view: the mask matters
+    # A soft map, so that every sampling position has a gradient.
+    scene = torch.rand(3, 200, 300, generator=torch.Generator().manual_seed(0), dtype=torch.float64)
+    weights = torch.rand(n, 3, IMAGE[1], IMAGE[0], generator=torch.Generator().manual_seed(1), dtype=torch.float64)
+
+    def run(warp) -> tuple[torch.Tensor, torch.Tensor]:
+        H = Hs.clone().requires_grad_(True)
+        out = warp(H)
+        (out * weights).sum().backward()
+        return out.detach(), H.grad
+
+    ours, ours_grad = run(lambda H: warp_semantic(scene, H, IMAGE, "bilinear"))
+    theirs, theirs_grad = run(lambda H: warp_perspective(scene.expand(n, -1, -1, -1), H, (IMAGE[1], IMAGE[0]),
+                                                          mode="bilinear", padding_mode="zeros", align_corners=True)
+                              * cheirality_mask(H, IMAGE)[:, None])
+    assert ours.abs().sum() > 0 and ours_grad.abs().sum() > 0
+    torch.testing.assert_close(ours, theirs, rtol=0, atol=1e-10)
+    torch.testing.assert_close(ours_grad, theirs_grad, rtol=1e-7, atol=1e-9 * float(ours_grad.abs().max()))

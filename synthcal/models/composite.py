@@ -100,6 +100,12 @@ class CompositeModel(nn.Module):
         margin: contrastive margin.
     """
 
+    # Buffers, declared so that type checkers see Tensors (nn.Module.__getattr__ is untyped).
+    scene: Tensor
+    dictionary_semantic: Tensor
+    dictionary_homography: Tensor
+    dictionary_embedding: Tensor
+
     def __init__(self, unet: UNet, siamese: SiameseNet, stn: nn.Module, scene: Tensor,
                  dictionary_semantic: Tensor, dictionary_homography: Tensor, num_classes: int = 4,
                  warp_loss_name: str = "top_mse", margin: float = 1.0):

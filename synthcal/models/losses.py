@@ -35,7 +35,7 @@ Example
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import torch
 import torch.nn.functional as F
@@ -154,7 +154,7 @@ def patch_mse(pred: Tensor, target: Tensor, grid: tuple[int, int] = GRID) -> Ten
         (B, rows, cols) per-patch MSE (mean over channels and the patch's pixels).
     """
     squared = (pred - target).square().sum(dim=1)
-    counts = patch_pixel_counts(pred.shape[-2:], grid).to(pred.device, pred.dtype)
+    counts = patch_pixel_counts((pred.shape[-2], pred.shape[-1]), grid).to(pred.device, pred.dtype)
     return patch_sums(squared, grid) / (counts * pred.shape[1])
 
 

@@ -30,9 +30,10 @@ Example
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Iterator
+from itertools import pairwise
 
 import torch
 from torch import Tensor
@@ -97,8 +98,7 @@ def _patch_order(size: tuple[int, int], grid: tuple[int, int], device: torch.dev
         return None, [0, size[0] * size[1]]
     index = torch.arange(size[0] * size[1], device=device).reshape(size)
     rows, cols = patch_bounds(size[0], grid[0]), patch_bounds(size[1], grid[1])
-    pieces = [index[r0:r1, c0:c1].flatten() for r0, r1 in zip(rows[:-1], rows[1:])
-              for c0, c1 in zip(cols[:-1], cols[1:])]
+    pieces = [index[r0:r1, c0:c1].flatten() for r0, r1 in pairwise(rows) for c0, c1 in pairwise(cols)]
     offsets = [0]
     for piece in pieces:
         offsets.append(offsets[-1] + len(piece))
@@ -122,7 +122,7 @@ class _Encoded:
 
     def __init__(self, maps: Tensor, grid: tuple[int, int], num_classes: int, out: Tensor | None = None):
         n = maps.shape[0]
-        order, pixel_offsets = _patch_order(tuple(maps.shape[-2:]), grid, maps.device)
+        order, pixel_offsets = _patch_order((maps.shape[-2], maps.shape[-1]), grid, maps.device)
         pixels_per_map = pixel_offsets[-1]
         if maps.dtype.is_floating_point:
             if maps.ndim != 4:
@@ -149,7 +149,7 @@ class _Encoded:
         depth = self.vectors.shape[1] // pixels_per_map
         self.offsets = [depth * o for o in pixel_offsets]
         self.norms = torch.stack(
-            [pixel_norms[:, a:b].sum(1) for a, b in zip(pixel_offsets[:-1], pixel_offsets[1:])], 1
+            [pixel_norms[:, a:b].sum(1) for a, b in pairwise(pixel_offsets)], 1
         )
 
 
@@ -159,7 +159,7 @@ def _scores(q: _Encoded, t: _Encoded, score: str, grid: tuple[int, int], size: t
     if score == "mse":
         blocks, q_norms, t_norms = [(0, q.offsets[-1])], q.norms.sum(1, keepdim=True), t.norms.sum(1, keepdim=True)
     else:
-        blocks, q_norms, t_norms = list(zip(q.offsets[:-1], q.offsets[1:])), q.norms, t.norms
+        blocks, q_norms, t_norms = list(pairwise(q.offsets)), q.norms, t.norms
     # ‖q − t‖² = ‖t‖² − 2 q·t + ‖q‖²: one fused GEMM (addmm) per block of columns.
     squared = q.vectors.new_empty(len(blocks), q.vectors.shape[0], t.vectors.shape[0])
     with _exact_fast_matmul(q.exact and t.exact):
@@ -207,7 +207,7 @@ def pairwise_scores(
         ``reduction="none"`` on each one-hot pair.
     """
     _check(queries, templates, score)
-    size = tuple(queries.shape[-2:])
+    size = (queries.shape[-2], queries.shape[-1])
     patches = grid if score == "top_mse" else (1, 1)
     q = _Encoded(queries, patches, num_classes)
     t = _Encoded(templates, patches, num_classes)
@@ -245,7 +245,7 @@ def match_ground_truth(
         :class:`MatchResult` with (Q,) indices into ``templates`` and scores.
     """
     _check(queries, templates, score)
-    size = tuple(queries.shape[-2:])
+    size = (queries.shape[-2], queries.shape[-1])
     patches = grid if score == "top_mse" else (1, 1)
     t = _Encoded(templates, patches, num_classes)
     buffer = None if queries.dtype.is_floating_point else t.vectors.new_empty(

@@ -26,7 +26,7 @@ Example
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import torch
 import torch.nn.functional as F
@@ -92,8 +92,12 @@ def contrastive_loss(a: Tensor, b: Tensor, same: Tensor, margin: float = 1.0, re
     raise ValueError(f"reduction must be 'mean' or 'none', got {reduction!r}")
 
 
-class Nearest(NamedTuple):
-    """Result of :func:`nearest_embeddings`: (Q,) int64 ``index`` and (Q,) ``squared_distance``."""
+@dataclass(frozen=True)
+class Nearest:
+    """Result of :func:`nearest_embeddings`: (Q,) int64 ``index`` and (Q,) ``squared_distance``.
+
+    A dataclass, not a NamedTuple: a tuple's field ``index`` would shadow ``tuple.index``.
+    """
 
     index: Tensor
     squared_distance: Tensor

@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test venv bench clean
+.PHONY: demo test lint venv bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -17,8 +17,14 @@ $(STAMP): pyproject.toml
 
 venv: $(STAMP)
 
+lint: $(STAMP)
+	$(PY) -m ruff check
+	$(PY) -m mypy
+
 test: $(STAMP)
-	$(PY) -m pytest tests
+	$(PY) -m ruff check
+	$(PY) -m mypy
+	$(PY) -m pytest
 
 demo: $(STAMP)
 	$(VENV)/bin/synthcal demo --out demo_out

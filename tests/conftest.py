@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 class SmokeStores:
     """Pristine smoke stores of the bundled configuration, generated on first request.
 
-    Every store is generated with one worker (``tests/test_generate.py`` compares
+    Every store is generated with one worker (``tests/generate/test_pipeline.py`` compares
     other worker counts against it) and never written to afterwards.
     """
 

@@ -21,7 +21,7 @@ Modes
 
   This is the warp of ``kornia.geometry.transform.warp_perspective(scene, H, (h, w),
   align_corners=True)`` times the cheirality mask; the two agree to 1e-12 in float64,
-  gradients included (``tests/test_models_warp.py``). kornia is not used: it
+  gradients included (``tests/models/test_warp.py``). kornia is not used: it
   computes positions in the scene's dtype, so on a float32 map it is several times
   less accurate, and as accurate only by sampling a float64 copy, 1.1–3.4× slower
   (``benchmarks/warp.py``, ``docs/decisions.md``).

@@ -21,8 +21,12 @@ __all__ = ["atomic_write"]
 def atomic_write(path: str | Path) -> Iterator[Path]:
     """A temporary path to write to; renamed onto ``path`` when the block ends without error.
 
-    >>> with atomic_write(folder / "run.json") as tmp:   # doctest: +SKIP
-    ...     tmp.write_text(text)
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with atomic_write(folder / "run.json") as tmp:
+    ...     _ = tmp.write_text('{"iou": 0.5}')
+    >>> sorted(p.name for p in folder.iterdir()), (folder / "run.json").read_text()
+    (['run.json'], '{"iou": 0.5}')
 
     Args:
         path: the destination file (its folder must exist).

@@ -20,7 +20,7 @@ from synthcal.store.splits import (
     resolve_mixed_dictionary,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 INTERSECTIONS = [f"intersection-{k}" for k in range(1, 6)]
 SEEDS = (0, 1, 2, 3, 4)
 

@@ -11,7 +11,7 @@ from synthcal.generate.camera import homography
 from synthcal.generate.pipeline import generate_dataset, load_scene
 from synthcal.store import CAMERA_FIELDS, StoreError, open_store
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

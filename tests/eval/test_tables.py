@@ -9,7 +9,7 @@ import pytest
 
 from synthcal.eval.tables import KEYS, aggregate, format_table, paper_results, table_frame
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def runs(rows):

@@ -22,7 +22,7 @@ from synthcal.training import (
     resolution_matrix,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.store.splits import SplitError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ORACLE = "synthcal_oracle_plugin:OracleEstimator"
 FAULTY = "synthcal_faulty_plugins"
 

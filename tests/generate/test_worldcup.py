@@ -25,8 +25,8 @@ from synthcal.generate.worldcup import (
 from synthcal.store import CAMERA_FIELDS, open_store, read_samples
 from synthcal.store.splits import SplitError, read_split_indices
 
-ROOT = Path(__file__).resolve().parents[1]
-FRAME_16 = Path(__file__).resolve().parents[2] / "shared/data/wc14/16.jpg"
+ROOT = Path(__file__).resolve().parents[2]
+FRAME_16 = Path(__file__).resolve().parents[3] / "shared/data/wc14/16.jpg"
 SEEDS = (0, 1, 2, 3, 4)
 
 

@@ -13,7 +13,7 @@ from synthcal.generate.splits import draw_splits
 from synthcal.store import open_store, read_samples
 from synthcal.store.splits import SplitError, read_split_indices
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

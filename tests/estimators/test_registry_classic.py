@@ -35,7 +35,7 @@ from synthcal.eval.metrics import evaluate, iou, iou_whole
 from synthcal.generate.camera import homography
 from synthcal.generate.render import render_image, render_semantic
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SIZE = (64, 36)
 PALETTE = np.array([[0, 0, 0], [90, 90, 90], [40, 160, 40], [200, 50, 50]], np.uint8)
 

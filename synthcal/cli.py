@@ -450,7 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", default="0-4", help="split seeds, e.g. 0-4 or 0,2 (default 0-4)")
     p.add_argument("--profile", default=None, help="training sizes of datasets.yaml (smoke, demo, quick, paper)")
     p.add_argument("--results", type=Path, required=True, help="results folder (runs/, cache/)")
-    from synthcal.options import LOSSES, MATCHINGS, SEGMENTATIONS, TRAININGS  # the vocabularies, defined once
+    from synthcal.config import LOSSES, MATCHINGS, SEGMENTATIONS, TRAININGS  # the vocabularies, defined once
 
     p.add_argument("--training", nargs="+", default=["step-by-step"], choices=TRAININGS)
     p.add_argument("--loss", nargs="+", default=["top-mse"], choices=LOSSES)

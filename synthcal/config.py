@@ -7,8 +7,12 @@ A dataset's *resolved* configuration (:class:`DatasetSpec`) is the dataset entry
 with the file's ``defaults`` filled in and a *profile* (``smoke``, ``quick``,
 ``paper``) applied; its hash is recorded in every store it produces.
 
-This module imports nothing of synthcal but the leaf ``synthcal.options`` (it is
-the root of the import graph).
+This module imports nothing of synthcal (it is the root of the import graph). It
+also spells, once, the option vocabularies of the bundled models and the benchmark
+(:data:`LOSSES`, :data:`MATCHINGS`, ...): ``Literal`` aliases for signatures (checked
+by mypy and pydantic) and tuples of their values in the paper's order (argparse
+``choices``, run-time checks). The values are plain strings: they are what run
+records, run ids, cache keys and tables contain.
 The few facts of the generator that validation needs are recorded here as data:
 the names of the built-in scenes (:data:`BUILTIN_SCENE_NAMES`) and the fixed
 train/test sizes of each set of given poses (:data:`POSE_SET_SPLITS`).
@@ -21,15 +25,24 @@ import hashlib
 import json
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from synthcal.options import Segmentation
-
 __all__ = [
+    "Model",
+    "Training",
+    "Loss",
+    "Matching",
+    "Segmentation",
+    "MODELS",
+    "MODEL_LABELS",
+    "TRAININGS",
+    "LOSSES",
+    "MATCHINGS",
+    "SEGMENTATIONS",
     "ConfigError",
     "GRID_AXES",
     "BUILTIN_SCENE_NAMES",
@@ -48,6 +61,28 @@ __all__ = [
     "default_config_path",
     "load_config",
 ]
+
+# --- option vocabularies (SPEC §7, §9) ------------------------------------------------------------
+
+# The paper's STN (``proposed``) or Sha et al.'s localisation network (``baseline``).
+Model = Literal["proposed", "baseline"]
+# Three stages one after another, each with its own loss, or all at once (SPEC §7).
+Training = Literal["step-by-step", "end-to-end"]
+# ``L_warp``: plain or topological (patch-wise) MSE / Dice (SPEC §7).
+Loss = Literal["top-mse", "mse", "top-dice", "dice"]
+# The score that defines each train image's correct template.
+Matching = Literal["top-mse", "mse"]
+# A trained UNet, or the true class maps for every compared estimator.
+Segmentation = Literal["unet", "ground-truth"]
+
+MODELS: tuple[Model, ...] = get_args(Model)
+TRAININGS: tuple[Training, ...] = get_args(Training)
+LOSSES: tuple[Loss, ...] = get_args(Loss)
+MATCHINGS: tuple[Matching, ...] = get_args(Matching)
+SEGMENTATIONS: tuple[Segmentation, ...] = get_args(Segmentation)
+
+# Model option → its label in run records and tables (the paper calls the baseline "sha2020").
+MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020"}
 
 GRID_AXES = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
 

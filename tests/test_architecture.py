@@ -9,8 +9,6 @@ line. The packages must also form no import cycle.
 The contract, package by package (a package may always import its own modules):
 
 * ``config``, ``models``, ``utils`` import nothing of synthcal;
-* ``options`` (the option vocabularies) imports nothing of synthcal and any package
-  may import it: a leaf adds no dependency between packages;
 * ``store`` → config, utils; ``generate`` → config, store, utils; ``data`` → config, store;
 * ``training`` → models, data, store, config, utils;
 * ``estimators`` → models, data, store, training, config, utils;
@@ -32,7 +30,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 TOP = "synthcal"
 
-LEAF = "options"  # importable by every package, imports nothing
 TOP_LEVEL = ""  # the package name of the top-level __init__.py
 
 
@@ -50,7 +47,6 @@ CONTRACT: dict[str, Rule] = {
     "config": Rule(),
     "models": Rule(),
     "utils": Rule(),
-    LEAF: Rule(),
     "store": Rule(frozenset({"config", "utils"})),
     "generate": Rule(frozenset({"config", "store", "utils"})),
     "data": Rule(frozenset({"config", "store"})),
@@ -138,12 +134,12 @@ def violations(imports: list[Import], contract: Mapping[str, Rule]) -> list[str]
             continue
         if rule.anything:
             continue
-        if source != TOP_LEVEL and target in (source, LEAF, TOP_LEVEL):  # its own modules, the leaf
+        if source != TOP_LEVEL and target in (source, TOP_LEVEL):  # its own modules
             continue
         if target not in rule.packages:
             allowed = ", ".join(sorted(rule.packages)) or "nothing of synthcal"
             who = source if source != TOP_LEVEL else f"{imp.importer}/__init__.py"
-            found.append(f"{imp}: {who} may import {allowed}" + (f" (and {LEAF})" if source != TOP_LEVEL else ""))
+            found.append(f"{imp}: {who} may import {allowed}")
             continue
         modules = (rule.only or {}).get(target)
         inside = imp.target.split(".", 1)[1]
@@ -226,8 +222,7 @@ def write_tree(root: Path, files: dict[str, str]) -> None:
 
 FAKE = {
     "fake/__init__.py": "",
-    "fake/options.py": "",
-    "fake/config.py": "import os\n\nfrom fake.options import X\n\n\ndef late():\n    from .generate.grid import g\n",
+    "fake/config.py": "import os\n\nimport yaml\n\n\ndef late():\n    from .generate.grid import g\n",
     "fake/store/__init__.py": "from . import format\nfrom .format import open_store\n",
     "fake/store/format.py": "from fake.config import C\nimport fake.utils\n",
     "fake/utils.py": "",

@@ -8,12 +8,12 @@
 
 Options
 -------
-The option values are defined once, in :mod:`synthcal.options`.
+The option values are defined once, in :mod:`synthcal.config`.
 
 ``model``
     ``proposed`` (the paper's STN: LocBlocks, self-attention, three FC layers) or
     ``baseline`` (Sha et al.'s plain localisation network). Table label
-    ``proposed`` / ``sha2020`` (:data:`synthcal.options.MODEL_LABELS`).
+    ``proposed`` / ``sha2020`` (:data:`synthcal.config.MODEL_LABELS`).
 ``training``
     ``step-by-step``: UNet (cross-entropy), then Siamese (contrastive loss, pairs
     from the ground-truth matching), then STN (``L_warp``), each with its own loss
@@ -63,18 +63,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from synthcal.config import TrainingSettings
-from synthcal.estimators.protocol import SceneLike, SplitLike
-from synthcal.models import (
-    BaselineSTN,
-    ProposedSTN,
-    SiameseNet,
-    UNet,
-    device_from_name,
-    match_ground_truth,
-    one_hot_maps,
-)
-from synthcal.options import (
+from synthcal.config import (
     LOSSES,
     MATCHINGS,
     MODEL_LABELS,
@@ -86,6 +75,17 @@ from synthcal.options import (
     Model,
     Segmentation,
     Training,
+    TrainingSettings,
+)
+from synthcal.estimators.protocol import SceneLike, SplitLike
+from synthcal.models import (
+    BaselineSTN,
+    ProposedSTN,
+    SiameseNet,
+    UNet,
+    device_from_name,
+    match_ground_truth,
+    one_hot_maps,
 )
 from synthcal.training import (
     MATCHING_SCORES,
@@ -117,7 +117,7 @@ _Module = TypeVar("_Module", bound=nn.Module)
 
 
 def _choice(name: str, value: str, allowed: Sequence[_Option]) -> _Option:
-    """``value`` as one of ``allowed`` (a vocabulary of :mod:`synthcal.options`), or a ValueError naming it."""
+    """``value`` as one of ``allowed`` (a vocabulary of :mod:`synthcal.config`), or a ValueError naming it."""
     for option in allowed:
         if value == option:
             return option

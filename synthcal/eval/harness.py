@@ -75,10 +75,10 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from synthcal.config import Loss, Matching, Segmentation, Training
 from synthcal.data import load_split, read_scene
 from synthcal.estimators import SemanticEstimator, load_estimator, resolve_estimator
 from synthcal.eval.metrics import METRICS, evaluate, summarize
-from synthcal.options import Loss, Matching, Segmentation, Training
 from synthcal.store import open_store
 from synthcal.store.splits import SplitError, drawn_seeds
 from synthcal.utils.atomic import atomic_write
@@ -96,7 +96,7 @@ __all__ = [
     "table_runs",
 ]
 
-# Run fields an estimator may take as constructor keywords (values: synthcal.options).
+# Run fields an estimator may take as constructor keywords (values: synthcal.config).
 AXES = ("training", "loss", "matching", "segmentation")
 # Run fields that do not change the result, left out of the run's hash.
 _NOT_HASHED = ("store",)

@@ -4,7 +4,7 @@
 * :mod:`synthcal.training.cache` — trained stages on disk, built once;
 * :mod:`synthcal.training.stages` — UNet, Siamese, STN and end-to-end training.
 
-Imports :mod:`synthcal.models`, :mod:`synthcal.options` and NumPy/PyTorch only.
+Imports :mod:`synthcal.models`, :mod:`synthcal.config` and NumPy/PyTorch only.
 """
 
 from synthcal.training.cache import StageCache, digest

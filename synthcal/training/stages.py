@@ -47,6 +47,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 from tqdm.auto import tqdm
 
+from synthcal.config import Loss, Matching
 from synthcal.models import (
     CompositeModel,
     SiameseNet,
@@ -59,7 +60,6 @@ from synthcal.models import (
     warp_loss,
     warp_semantic,
 )
-from synthcal.options import Loss, Matching
 from synthcal.training.resolution import NUM_CLASSES, resolution_matrix
 
 __all__ = [
@@ -82,7 +82,7 @@ __all__ = [
 
 # The paper's warm-up thresholds (20, 40) read as fractions of a 100-epoch schedule.
 PAPER_END_TO_END_EPOCHS = 100
-# The options' spellings (:mod:`synthcal.options`) → the names :mod:`synthcal.models` gives
+# The options' spellings (:mod:`synthcal.config`) → the names :mod:`synthcal.models` gives
 # its warp losses (:func:`synthcal.models.warp_loss`) and matching scores
 # (:func:`synthcal.models.match_ground_truth`).
 WARP_LOSS_NAMES: dict[Loss, str] = {"top-mse": "top_mse", "mse": "mse", "top-dice": "top_dice", "dice": "dice"}

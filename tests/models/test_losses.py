@@ -154,7 +154,8 @@ def test_patch_bounds_follow_tensor_split():
 
 
 def test_warp_loss_names():
-    assert warp_loss("top-mse") is top_mse_loss
-    assert warp_loss("Dice") is dice_loss
-    with pytest.raises(ValueError):
-        warp_loss("l1")
+    assert warp_loss("top_mse") is top_mse_loss
+    assert warp_loss("dice") is dice_loss
+    for unknown in ("l1", "top-mse", "Dice"):  # one spelling per loss: no silent conversions
+        with pytest.raises(ValueError):
+            warp_loss(unknown)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal, get_args
@@ -44,6 +45,7 @@ __all__ = [
     "MATCHINGS",
     "SEGMENTATIONS",
     "ConfigError",
+    "check_dataset_name",
     "GRID_AXES",
     "BUILTIN_SCENE_NAMES",
     "POSE_SET_SPLITS",
@@ -100,6 +102,30 @@ POSE_SET_SPLITS: dict[str, dict[str, int]] = {"worldcup2014": {"train": 209, "te
 
 class ConfigError(ValueError):
     """Invalid configuration; the message names the file, key and value."""
+
+
+# A dataset name becomes a file name (``NAME.zarr``): a plain name, never a path.
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9._-]+")
+
+
+def check_dataset_name(name: str, where: str = "") -> None:
+    """Refuse a dataset name that is not a plain file name.
+
+    Plain: letters, digits, ``-``, ``_`` and ``.``, not ``.`` or ``..`` — so
+    ``NAME.zarr`` lies inside the output folder.
+
+    >>> check_dataset_name("intersection-1")
+    >>> check_dataset_name("../escaped", "datasets.yaml: ")
+    Traceback (most recent call last):
+    ...
+    synthcal.config.ConfigError: datasets.yaml: datasets.../escaped: a dataset name is a plain name: letters, digits, '-', '_' and '.', not '.' or '..' (value '../escaped')
+
+    Raises:
+        ConfigError: naming ``where`` (e.g. the file), the key and the value.
+    """
+    if not isinstance(name, str) or not _PLAIN_NAME.fullmatch(name) or name in (".", ".."):
+        raise ConfigError(f"{where}datasets.{name}: a dataset name is a plain name: letters, digits, '-', '_' "
+                          f"and '.', not '.' or '..' (value {name!r})")
 
 
 class _Strict(BaseModel):
@@ -540,7 +566,8 @@ def _check_references(path: Path, config: Config) -> None:
 
 
 def _check_dataset_references(path: Path, config: Config, name: str, entry: DatasetConfig) -> None:
-    """One dataset's ``dictionary_from``, ``scene`` and ``grid`` name things that exist."""
+    """One dataset's name is plain and its ``dictionary_from``, ``scene`` and ``grid`` name things that exist."""
+    check_dataset_name(name, f"{path}: ")
     for source in entry.dictionary_from or ():
         if source not in config.datasets or source == name:
             raise ConfigError(

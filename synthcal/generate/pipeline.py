@@ -7,7 +7,11 @@ configuration alone, never on the number of workers or the order shards finish i
 
 Resuming: the store grows under ``NAME.zarr.partial``; each finished shard leaves a
 marker in ``.NAME.zarr.progress/``; a rerun with the same configuration renders only
-the shards without a marker, and the last step renames the store to ``NAME.zarr``.
+the shards without a marker. The last steps sweep away temporary files a killed
+writer left, record the manifest (:func:`synthcal.store.manifest`), mark the store
+complete and rename it to ``NAME.zarr``; any later run removes a progress folder
+left behind. The whole run holds the store's lock (:func:`synthcal.store.store_lock`),
+so a second ``generate`` of the same store fails at once and touches nothing.
 
 Cameras come from a grid (sampled, SPEC §3) or, for a dataset of given ``poses``,
 from real homographies (:mod:`synthcal.generate.worldcup`); :func:`plan_cameras`
@@ -28,7 +32,7 @@ import numpy as np
 import zarr
 from tqdm.auto import tqdm
 
-from synthcal.config import ConfigError, DatasetSpec
+from synthcal.config import ConfigError, DatasetSpec, check_dataset_name
 from synthcal.generate.camera import homography as camera_homography
 from synthcal.generate.grid import CameraSamples, sample_cameras
 from synthcal.generate.render import Appearance, apply_appearance_on_ground, render_image, render_semantic
@@ -38,10 +42,13 @@ from synthcal.store import (
     FORMAT_VERSION,
     create_store,
     image_layouts,
+    manifest,
     software_versions,
+    store_lock,
     write_samples,
 )
 from synthcal.store.shards import ShardLayout
+from synthcal.utils.atomic import remove_temporaries
 from synthcal.utils.dispatch import dispatch
 
 __all__ = ["load_scene", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset", "store_path"]
@@ -167,7 +174,12 @@ def run_shard(task: ShardTask) -> int:
 
 
 def store_path(out_dir: Path, dataset: str) -> Path:
-    """Where ``dataset``'s finished store lives under ``out_dir``."""
+    """Where ``dataset``'s finished store lives under ``out_dir``.
+
+    Raises:
+        ConfigError: not a plain name (a path separator, ``.`` or ``..``): it would leave ``out_dir``.
+    """
+    check_dataset_name(dataset)
     return Path(out_dir) / f"{dataset}.zarr"
 
 
@@ -181,6 +193,7 @@ def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
             "name": scene.name, "classes": list(scene.classes), "palette": [list(c) for c in scene.palette],
             "heading_deg": scene.heading_deg, "pixels_per_metre": scene.pixels_per_metre,
             "camera_position": None if scene.camera_position is None else list(scene.camera_position),
+            "field": scene.field_polygon(),  # iou_part's clip polygon (SPEC §4, §8)
             "description": scene.description,
         },
         "grid": None if spec.grid is None else spec.grid.model_dump(mode="json"),
@@ -253,20 +266,30 @@ def generate_dataset(
         ConfigError: a scene that cannot be loaded, a grid leaving the scene, or
             a store at the destination made from another configuration. Nothing is
             written in those cases.
+        StoreLocked: another process is generating this store (or drawing its
+            splits); nothing is touched.
     """
     out_dir = Path(out_dir)
     final = store_path(out_dir, spec.name)
     scene = load_scene(spec)
     _check_grid_inside_scene(spec, scene)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with store_lock(final):
+        return _generate_locked(spec, scene, final, workers, scheduler, progress, on_shard)
+
+
+def _generate_locked(spec: DatasetSpec, scene: Scene, final: Path, workers: int, scheduler: str | None,
+                     progress: bool, on_shard: Callable[[int], None] | None) -> Path:
+    """:func:`generate_dataset`'s work, under the store's lock."""
+    partial = final.with_name(final.name + ".partial")
+    progress_dir = final.with_name(f".{final.name}.progress")
     if final.exists():
         group = zarr.open_group(zarr.storage.LocalStore(final, read_only=True), mode="r", zarr_format=3)
         if group.attrs.get("config_hash") != spec.config_hash():
             raise ConfigError(f"{final}: exists and was made with a different configuration; "
                               "delete it or choose another output folder")
+        shutil.rmtree(progress_dir, ignore_errors=True)  # a run killed just after its final rename
         return final
-    partial = final.with_name(final.name + ".partial")
-    progress_dir = out_dir / f".{final.name}.progress"
-    out_dir.mkdir(parents=True, exist_ok=True)
     homographies = _prepare_partial(spec, scene, partial, progress_dir)
     layouts = image_layouts(partial)
     size = spec.shard_size
@@ -281,8 +304,12 @@ def generate_dataset(
             bar.update(count)
             if on_shard is not None:
                 on_shard(count)
+    # Killed writers (this run's or an earlier one's) may have left temporaries; under
+    # the lock none is at work, so whatever matches is debris.
+    remove_temporaries(partial)
     group = zarr.open_group(zarr.storage.LocalStore(partial), mode="r+", zarr_format=3)
-    group.attrs["complete"] = True
+    group.attrs.update({"manifest": manifest(partial), "complete": True})
+    remove_temporaries(partial)  # zarr writes zarr.json through a temporary too
     os.replace(partial, final)
     shutil.rmtree(progress_dir, ignore_errors=True)
     return final

@@ -30,7 +30,10 @@ target's scene (``homography_frame`` says so in the store).
 moved into place with ``os.replace``, so ``splits/seed-<s>`` is always whole. A
 seed whose recorded recipe (pool, sizes, sources) equals the request is left alone,
 so redrawing is idempotent; a changed recipe replaces the group (the old one is
-moved aside first, then deleted). One writer per store at a time.
+moved aside first, then deleted). One writer per store at a time: drawing holds the
+store's lock (:func:`synthcal.store.store_lock`, the one ``generate`` holds), and
+sweeps away the scratch folders of a writer that was killed. Index arrays end in
+the ``crc32c`` codec, as every array of the store does.
 
 Example
 -------
@@ -55,6 +58,7 @@ import numpy as np
 import zarr
 
 from synthcal.config import SplitSizes
+from synthcal.store import CHECKSUMMED_INDEX, store_lock
 from synthcal.store.format import open_store
 from synthcal.store.splits import (
     LAYOUT_VERSION,
@@ -197,12 +201,12 @@ def _write_seed(store: Path, seed: int, recipe: dict, sets: dict[str, np.ndarray
         built = scratch / f"seed-{seed}"
         group = zarr.create_group(zarr.storage.LocalStore(built), zarr_format=3, attributes=recipe)
         for name, index in sets.items():
-            group.create_array(name, data=index)
+            group.create_array(name, data=index, compressors=CHECKSUMMED_INDEX)
         if mixed is not None:
             source, index, attrs = mixed
             sub = group.create_group("mixed_dictionary", attributes=attrs)
-            sub.create_array("source", data=source)
-            sub.create_array("index", data=index)
+            sub.create_array("source", data=source, compressors=CHECKSUMMED_INDEX)
+            sub.create_array("index", data=index, compressors=CHECKSUMMED_INDEX)
         target = store / "splits" / f"seed-{seed}"
         if target.exists():
             os.replace(target, scratch / "previous")
@@ -257,8 +261,19 @@ def draw_splits(
     Raises:
         SplitError: a bad seed, sizes larger than the pool, a missing or
             incompatible source store (when required); nothing is written then.
+        StoreLocked: another process is writing the store.
     """
     store = Path(store)
+    open_store(store)  # a missing store is named as such, before any lock file is made beside it
+    with store_lock(store):
+        for scratch in store.glob(".splits-tmp-*"):  # a killed drawer's; none is at work under the lock
+            shutil.rmtree(scratch, ignore_errors=True)
+        return _draw_locked(store, seeds, sizes, sources, mixed)
+
+
+def _draw_locked(store: Path, seeds: Sequence[int] | None, sizes: SplitSizes | None,
+                 sources: Sequence[str] | None, mixed: bool | None) -> DrawResult:
+    """:func:`draw_splits`' work, under the store's lock."""
     group = open_store(store)
     spec = store_spec(group, store)
     seeds = tuple(spec.split_seeds if seeds is None else seeds)

@@ -3,26 +3,34 @@
 * :mod:`synthcal.store.format` — creating, opening and reading a store;
 * :mod:`synthcal.store.shards` — whole shard files written and read byte for byte
   as Zarr's sharding codec lays them out;
+* :mod:`synthcal.store.lock` — one writer per store (an exclusive ``flock``);
+* :mod:`synthcal.store.verify` — reading a whole store back, checksums and all;
 * :mod:`synthcal.store.splits` — reading the per-seed splits a store holds (drawing
   them is generation's job, :mod:`synthcal.generate.splits`).
 
 Imports only :mod:`synthcal.config` and :mod:`synthcal.utils` of synthcal.
 """
 
+from synthcal.store.errors import CorruptStore, StoreError, StoreLocked
 from synthcal.store.format import (
     CAMERA_FIELDS,
+    CHECKSUMMED,
+    CHECKSUMMED_INDEX,
     FORMAT_VERSION,
-    StoreError,
+    MANIFEST_ARRAYS,
+    LegacyStoreWarning,
     array_at,
     attributes,
     create_store,
     group_at,
     image_layouts,
+    manifest,
     open_store,
     read_samples,
     software_versions,
     write_samples,
 )
+from synthcal.store.lock import lock_path, store_lock
 from synthcal.store.splits import (
     SPLIT_NAMES,
     MixedDictionary,
@@ -35,11 +43,21 @@ from synthcal.store.splits import (
     source_store_path,
     store_spec,
 )
+from synthcal.store.verify import Report, verify_store
 
 __all__ = [
     "CAMERA_FIELDS",
+    "CHECKSUMMED",
+    "CHECKSUMMED_INDEX",
     "FORMAT_VERSION",
     "StoreError",
+    "StoreLocked",
+    "CorruptStore",
+    "LegacyStoreWarning",
+    "MANIFEST_ARRAYS",
+    "lock_path",
+    "store_lock",
+    "manifest",
     "array_at",
     "attributes",
     "create_store",
@@ -59,4 +77,6 @@ __all__ = [
     "resolve_mixed_dictionary",
     "source_store_path",
     "store_spec",
+    "verify_store",
+    "Report",
 ]

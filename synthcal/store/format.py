@@ -15,6 +15,17 @@ Group attributes record the format version, the scene, the grid, ``N``, the seed
 the image size, ``focal_reference_width``, software versions and the hash of the
 resolved configuration.
 
+Integrity: every array's inner codec chain ends in Zarr v3's ``crc32c`` codec, so
+each chunk carries its CRC32C (checked by :mod:`synthcal.store.shards`' reader and
+by zarr-python alike), and each shard's index carries its own. At completion the
+store records a ``manifest`` attribute: per array (:data:`MANIFEST_ARRAYS`) its
+number of shards and, per shard file present, its size and CRC32C.
+:func:`open_store` checks that every listed file is there with its size, so a lost
+or truncated shard is an error naming the file rather than zeros;
+:mod:`synthcal.store.verify` checks everything. Stores of format
+``synthcal-store/1`` (no chunk checksums, no manifest) still read, with a
+:class:`LegacyStoreWarning`.
+
 Atomicity: every file is written under a temporary name and renamed (by Zarr's
 local store, or by :func:`synthcal.store.shards.write_shard` for the per-sample
 arrays' shards), so a file is whole or absent. A store is built under ``NAME.zarr.partial``
@@ -25,20 +36,32 @@ final name is always complete (its ``complete`` attribute says so too).
 from __future__ import annotations
 
 import platform
+import warnings
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+import google_crc32c
 import numpy as np
 import zarr
-from zarr.codecs import BloscCodec
+from zarr.codecs import BloscCodec, Crc32cCodec, ZstdCodec
 
+from synthcal.store.errors import CorruptStore, StoreError
 from synthcal.store.shards import ShardLayout, read_rows, shard_layout, write_shard
 
 __all__ = [
     "FORMAT_VERSION",
+    "LEGACY_FORMAT_VERSIONS",
     "CAMERA_FIELDS",
+    "MANIFEST_ARRAYS",
+    "CHECKSUMMED",
+    "CHECKSUMMED_INDEX",
+    "file_crc32c",
     "StoreError",
+    "CorruptStore",
+    "LegacyStoreWarning",
+    "manifest",
+    "check_manifest",
     "software_versions",
     "create_store",
     "image_layouts",
@@ -50,15 +73,26 @@ __all__ = [
     "attributes",
 ]
 
-FORMAT_VERSION = "synthcal-store/1"
+FORMAT_VERSION = "synthcal-store/2"
+# Older formats still read: /1 lacks chunk checksums and the manifest.
+LEGACY_FORMAT_VERSIONS = ("synthcal-store/1",)
 CAMERA_FIELDS = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
+# The arrays of a complete store that its manifest lists (splits/ are drawn later).
+MANIFEST_ARRAYS = ("image", "semantic", "homography", *(f"camera/{name}" for name in CAMERA_FIELDS),
+                   "camera/grid_index", "scene/image", "scene/semantic")
 # LZ4 rather than Zstd: a third larger, but it both encodes and decodes several times
 # faster, and reading a split must stay within a few times numpy.load of raw arrays.
 _COMPRESSOR = BloscCodec(cname="lz4", clevel=5, shuffle="shuffle")
+# Every array's inner chain ends in a CRC32C of the encoded chunk (``compressors`` of
+# ``create_array``: the bytes-to-bytes codecs after the ``bytes`` serializer).
+_CHECKSUM = Crc32cCodec()
+CHECKSUMMED = (_COMPRESSOR, _CHECKSUM)
+# Small int64 index arrays (splits): Zarr's default compressor, then the checksum.
+CHECKSUMMED_INDEX = (ZstdCodec(level=0), _CHECKSUM)
 
 
-class StoreError(ValueError):
-    """A store that is missing, incomplete or not a synthcal store."""
+class LegacyStoreWarning(UserWarning):
+    """A store of an older format: it reads, but lacks chunk checksums and a manifest."""
 
 
 def software_versions() -> dict[str, str]:
@@ -82,7 +116,7 @@ def _sample_array(
         chunks=(1, *shape[1:]),
         shards=(shard_size, *shape[1:]),
         dtype=dtype,
-        compressors=_COMPRESSOR if compressed else None,
+        compressors=CHECKSUMMED if compressed else (_CHECKSUM,),
         fill_value=0,
     )
 
@@ -125,7 +159,7 @@ def create_store(
             write_shard(layout, shard, values[start:start + shard_size])
     for name, array in (("scene/image", scene_image), ("scene/semantic", scene_semantic)):
         group.create_array(name, shape=array.shape, chunks=array.shape, dtype="uint8",
-                           compressors=_COMPRESSOR, fill_value=0)[:] = array
+                           compressors=CHECKSUMMED, fill_value=0)[:] = array
     return group
 
 
@@ -162,12 +196,90 @@ def write_samples(layouts: dict[str, ShardLayout], shard: int, image: np.ndarray
     write_shard(layouts["semantic"], shard, semantic)
 
 
+def _chunk_files(folder: Path) -> list[Path]:
+    """The chunk (shard) files of an array folder, in a fixed order."""
+    root = folder / "c"
+    return sorted((p for p in root.rglob("*") if p.is_file()), key=lambda p: p.relative_to(root).parts) \
+        if root.is_dir() else []
+
+
+def file_crc32c(path: Path) -> str:
+    """CRC32C of a whole file, 8 hex digits."""
+    checksum = google_crc32c.Checksum()
+    with open(path, "rb") as file:
+        while block := file.read(1 << 22):
+            checksum.update(block)
+    return checksum.hexdigest().decode()
+
+
+def manifest(path: Path) -> dict[str, Any]:
+    """The manifest of a store's :data:`MANIFEST_ARRAYS`, from the files on disk.
+
+    Returns:
+        ``{array: {"shards": n, "files": {"c/0/0/0/0": {"size": bytes, "crc32c": "8 hex"}}}}``;
+        ``shards`` counts the shard grid's cells (a cell holding only fill values has no file).
+    """
+    group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r", zarr_format=3)
+    out: dict[str, Any] = {}
+    for name in MANIFEST_ARRAYS:
+        array = array_at(group, name)
+        folder = path / name
+        files = {p.relative_to(folder).as_posix(): {"size": p.stat().st_size, "crc32c": file_crc32c(p)}
+                 for p in _chunk_files(folder)}
+        out[name] = {"shards": int(np.prod([-(-n // s) for n, s in zip(array.shape, array.shards or array.chunks,
+                                                                            strict=True)])),
+                     "files": files}
+    return out
+
+
+def check_manifest(path: Path, recorded: dict[str, Any], checksums: bool = False) -> list[str]:
+    """What differs between a store's files and its manifest, one message per file (empty: all well).
+
+    Args:
+        path: the store.
+        recorded: its ``manifest`` attribute.
+        checksums: also read every file and compare its CRC32C (else sizes only: cheap).
+    """
+    problems = []
+    for name in MANIFEST_ARRAYS:
+        entry = recorded.get(name)
+        if not isinstance(entry, dict) or not isinstance(entry.get("files"), dict):
+            problems.append(f"{path / name}: missing from the store's manifest")
+            continue
+        for key, expected in entry["files"].items():
+            file = path / name / key
+            try:
+                size = file.stat().st_size
+            except FileNotFoundError:
+                problems.append(f"{file}: shard file missing (the manifest records {expected['size']} bytes)")
+                continue
+            if size != expected["size"]:
+                problems.append(f"{file}: {size} bytes, the manifest records {expected['size']}")
+            elif checksums and file_crc32c(file) != expected["crc32c"]:
+                problems.append(f"{file}: file checksum {file_crc32c(file)} differs from the manifest's "
+                                f"{expected['crc32c']}")
+        if checksums:
+            for extra in sorted({p.relative_to(path / name).as_posix() for p in _chunk_files(path / name)}
+                                - set(entry["files"])):
+                problems.append(f"{path / name / extra}: a file the manifest does not list")
+    return problems
+
+
 def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:
     """Open a generated store for reading.
+
+    A complete store's shard files are checked against its manifest (present, of
+    the recorded size: one ``stat`` each); :mod:`synthcal.store.verify` checks
+    checksums too.
 
     Raises:
         StoreError: no such store, not a synthcal store, or (unless
             ``allow_incomplete``) a store whose generation has not finished.
+        CorruptStore: a complete store with a shard file missing or of another
+            size than its manifest records, or without a manifest; names the file.
+
+    Warns:
+        LegacyStoreWarning: a store of format ``synthcal-store/1`` (no chunk checksums).
     """
     path = Path(path)
     if not (path / "zarr.json").is_file():
@@ -176,10 +288,21 @@ def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:
         raise StoreError(f"{path}: no synthcal store here{hint}")
     group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r", zarr_format=3)
     version = group.attrs.get("format_version")
-    if version != FORMAT_VERSION:
+    if version in LEGACY_FORMAT_VERSIONS:
+        warnings.warn(f"{path}: format_version {version!r} lacks chunk checksums and a manifest: damage may go "
+                      f"unnoticed; regenerate it to get format {FORMAT_VERSION!r}", LegacyStoreWarning, stacklevel=2)
+    elif version != FORMAT_VERSION:
         raise StoreError(f"{path}: format_version is {version!r}, expected {FORMAT_VERSION!r}")
-    if not allow_incomplete and not group.attrs.get("complete", False):
+    complete = bool(group.attrs.get("complete", False))
+    if not allow_incomplete and not complete:
         raise StoreError(f"{path}: the store is incomplete (generation did not finish)")
+    if complete and version == FORMAT_VERSION:
+        recorded = group.attrs.get("manifest")
+        if not isinstance(recorded, dict):
+            raise CorruptStore(f"{path}/zarr.json: a complete store without its 'manifest' attribute")
+        problems = check_manifest(path, recorded)
+        if problems:
+            raise CorruptStore("; ".join(problems) + f" (run `synthcal verify {path}`)")
     return group
 
 

@@ -16,8 +16,9 @@ array's Zarr v3 metadata by :func:`shard_layout`. Only the layout that
 :mod:`synthcal.store.format` creates is accepted: a local store, regular chunk
 grid, default ``/`` chunk keys, a single ``sharding_indexed`` codec with one
 sample per inner chunk and shards split along the first axis only, inner codecs
-``bytes`` then ``blosc``, ``zstd`` or nothing, index codecs ``bytes`` (little
-endian) + ``crc32c`` at the end of the file, a numeric dtype and a fill value
+``bytes``, then ``blosc``, ``zstd`` or nothing, then ``crc32c`` or nothing (stores
+of format ``synthcal-store/1`` have no chunk checksum), index codecs ``bytes``
+(little endian) + ``crc32c`` at the end of the file, a numeric dtype and a fill value
 that is not NaN. Anything else raises :class:`UnsupportedLayout`: the writer
 passes the error on, the reader falls back to Zarr's own orthogonal selection, so
 results never depend on the path taken (the tests compare both).
@@ -25,7 +26,8 @@ results never depend on the path taken (the tests compare both).
 Writing
 -------
 A shard file is, per the Zarr v3 sharding specification, the compressed chunks in
-order, then the ``(offset, nbytes)`` uint64 index and its CRC32C. Chunks equal to
+order (each followed by its CRC32C when the chain ends in ``crc32c``), then the
+``(offset, nbytes)`` uint64 index and its CRC32C. Chunks equal to
 the fill value are left out (Zarr's ``write_empty_chunks=False``), and a shard with
 no chunk at all has no file. Tests check the output byte for byte against Zarr's
 own encoder. Each file goes to a temporary name first and is then renamed
@@ -34,9 +36,14 @@ own encoder. Each file goes to a temporary name first and is then renamed
 Reading
 -------
 Per shard, one ``pread`` of the index (checked with its CRC32C), one ``pread`` of
-the wanted chunks' span (or one per chunk when the selection is sparse), decoding
-straight into the output; shards are spread over a thread pool (the decoders
-release the GIL).
+the wanted chunks' span (or one per chunk when the selection is sparse), each
+chunk's CRC32C checked before it is decoded straight into the output; shards are
+spread over a thread pool (the decoders release the GIL). A checksum that does not
+match, an index pointing outside its file or a file shorter than its index raises
+:class:`~synthcal.store.errors.CorruptStore` naming the file: damage is never
+returned as data. A missing shard file reads as fill values, as in Zarr; a
+complete store's manifest (:mod:`synthcal.store.format`) tells a shard that was
+never written from one that was lost.
 """
 
 from __future__ import annotations
@@ -54,6 +61,7 @@ import zarr
 from numcodecs import Blosc, Zstd
 from numcodecs.abc import Codec
 
+from synthcal.store.errors import CorruptStore
 from synthcal.utils.atomic import atomic_write
 
 __all__ = ["ShardLayout", "UnsupportedLayout", "shard_layout", "encode_shard", "write_shard", "read_rows"]
@@ -77,6 +85,7 @@ class ShardLayout:
         dtype: the stored bytes' dtype, byte order included (the ``bytes`` codec's endian).
         codec: the inner compressor, None for raw bytes.
         fill_value: the value of samples never written.
+        checksum: each chunk ends in its CRC32C (the ``crc32c`` codec ends the inner chain).
     """
 
     directory: Path
@@ -85,6 +94,7 @@ class ShardLayout:
     dtype: np.dtype[Any]
     codec: Codec | None
     fill_value: int | float | complex
+    checksum: bool = True
 
     @property
     def ndim(self) -> int:
@@ -127,19 +137,25 @@ def _check_grid(meta: dict[str, Any], shape: tuple[int, ...], where: str) -> int
     return int(shard_shape[0])
 
 
-def _check_codecs(config: dict[str, Any], where: str) -> tuple[str, Codec | None]:
-    """The ``bytes`` codec's endian and the inner compressor, after checking the index codecs."""
+def _check_codecs(config: dict[str, Any], where: str) -> tuple[str, Codec | None, bool]:
+    """The ``bytes`` codec's endian, the inner compressor and whether chunks carry a CRC32C,
+    after checking the index codecs."""
     inner, index = config["codecs"], config["index_codecs"]
     names = [c["name"] for c in inner]
+    checksum = names[-1:] == ["crc32c"]
+    if checksum:
+        inner, names = inner[:-1], names[:-1]
     if names[:1] != ["bytes"] or len(names) > 2 or names[1:] not in ([], ["blosc"], ["zstd"]):
-        raise UnsupportedLayout(f"{where}: inner codecs {names} (supported: bytes, then blosc, zstd or nothing)")
+        shown = names + ["crc32c"] * checksum
+        raise UnsupportedLayout(f"{where}: inner codecs {shown} (supported: bytes, then blosc, zstd or nothing, "
+                                f"then crc32c or nothing)")
     index_names = [c["name"] for c in index]
     index_endian = index[0].get("configuration", {}).get("endian", "little") if index else None
     if index_names != ["bytes", "crc32c"] or index_endian != "little" or config["index_location"] != "end":
         raise UnsupportedLayout(f"{where}: shard index codecs {index_names} ({index_endian} endian) at the "
                                 f"{config['index_location']} (supported: little-endian bytes + crc32c at the end)")
     endian = inner[0].get("configuration", {}).get("endian", "little")
-    return endian, (_inner_codec(names[1], inner[1], where) if len(names) == 2 else None)
+    return endian, (_inner_codec(names[1], inner[1], where) if len(names) == 2 else None), checksum
 
 
 def shard_layout(array: zarr.Array) -> ShardLayout:
@@ -157,7 +173,7 @@ def shard_layout(array: zarr.Array) -> ShardLayout:
                                 f"(supported: a local Zarr v3 store)")
     shape = tuple(int(n) for n in array.shape)
     shard_size = _check_grid(meta, shape, where)
-    endian, codec = _check_codecs(meta["codecs"][0]["configuration"], where)
+    endian, codec, checksum = _check_codecs(meta["codecs"][0]["configuration"], where)
     dtype = np.dtype(array.dtype)
     if dtype.kind not in "biufc":
         raise UnsupportedLayout(f"{where}: data type {meta['data_type']!r} (supported: booleans and numbers)")
@@ -171,6 +187,7 @@ def shard_layout(array: zarr.Array) -> ShardLayout:
         dtype=dtype.newbyteorder("<" if endian == "little" else ">"),
         codec=codec,
         fill_value=fill,
+        checksum=checksum,
     )
 
 
@@ -196,14 +213,20 @@ def encode_shard(layout: ShardLayout, samples: np.ndarray) -> bytes | None:
             continue
         raw = np.ascontiguousarray(sample, dtype=layout.dtype)  # the bytes codec's byte order
         frame = raw.tobytes() if codec is None else codec.encode(raw)
-        index[k] = (offset, len(frame))
         frames.append(frame)
-        offset += len(frame)
+        if layout.checksum:  # Zarr's crc32c codec: the CRC32C of the encoded chunk, 4 bytes little endian
+            frames.append(_crc_bytes(frame))
+        index[k] = (offset, len(frame) + 4 * layout.checksum)
+        offset += int(index[k, 1])
     if not frames:
         return None
     index_bytes = index.tobytes()
-    checksum = np.uint32(google_crc32c.value(index_bytes)).astype("<u4").tobytes()
-    return b"".join([*frames, index_bytes, checksum])
+    return b"".join([*frames, index_bytes, _crc_bytes(index_bytes)])
+
+
+def _crc_bytes(data: bytes) -> bytes:
+    """CRC32C of ``data`` as 4 little-endian bytes."""
+    return int(google_crc32c.value(data)).to_bytes(4, "little")
 
 
 def write_shard(layout: ShardLayout, shard: int, samples: np.ndarray) -> None:
@@ -230,7 +253,11 @@ def write_shard(layout: ShardLayout, shard: int, samples: np.ndarray) -> None:
 
 
 def _read_shard(layout: ShardLayout, shard: int, rows: np.ndarray, positions: np.ndarray, out: np.ndarray) -> None:
-    """Decode rows ``rows`` (ascending, within shard ``shard``) into ``out[positions]``."""
+    """Decode rows ``rows`` (ascending, within shard ``shard``) into ``out[positions]``.
+
+    Raises:
+        CorruptStore: a checksum that does not match or an index that does not fit the file.
+    """
     path = layout.path(shard)
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -239,9 +266,13 @@ def _read_shard(layout: ShardLayout, shard: int, rows: np.ndarray, positions: np
         return
     try:
         index_size = 16 * layout.shard_size + 4
-        index_bytes = os.pread(fd, index_size, os.fstat(fd).st_size - index_size)
+        file_size = os.fstat(fd).st_size
+        if file_size < index_size:
+            raise CorruptStore(f"{path}: {file_size} bytes, shorter than its shard index ({index_size} bytes): "
+                               f"a truncated shard")
+        index_bytes = os.pread(fd, index_size, file_size - index_size)
         if google_crc32c.value(index_bytes[:-4]) != int.from_bytes(index_bytes[-4:], "little"):
-            raise OSError(f"{path}: shard index checksum mismatch (corrupt shard)")
+            raise CorruptStore(f"{path}: shard index checksum mismatch (the file is damaged)")
         index = np.frombuffer(index_bytes[:-4], "<u8").reshape(layout.shard_size, 2)[rows]
         present = index[:, 0] != _EMPTY
         out[positions[~present]] = layout.fill_value
@@ -251,29 +282,59 @@ def _read_shard(layout: ShardLayout, shard: int, rows: np.ndarray, positions: np
         # One read for the whole span when it is mostly wanted bytes (few syscalls for
         # small chunks), one read per chunk for a sparse selection.
         start, stop = int(index[:, 0].min()), int((index[:, 0] + index[:, 1]).max())
-        span = memoryview(os.pread(fd, stop - start, start)) if stop - start <= 4 * int(index[:, 1].sum()) else None
-        codec = layout.codec
-        if codec is None:
-            _gather_raw(span if span is not None else memoryview(os.pread(fd, stop - start, start)),
-                        index, start, positions, out, layout.dtype)
+        if stop > file_size - index_size:
+            raise CorruptStore(f"{path}: the shard index points past the chunks (byte {stop} of "
+                               f"{file_size - index_size}): the file is damaged")
+        dense = stop - start <= 4 * int(index[:, 1].sum())
+        # numpy views of the bytes read: google_crc32c and the decoders take them without a copy
+        span = np.frombuffer(os.pread(fd, stop - start, start), np.uint8) if dense else None
+        if layout.codec is None:
+            if span is None:
+                span = np.frombuffer(os.pread(fd, stop - start, start), np.uint8)
+            _gather_raw(span, index, start, positions, out, layout, path)
             return
-        native = layout.dtype.isnative
-        for position, (offset, length) in zip(positions, index.tolist(), strict=True):
-            raw = span[offset - start: offset - start + length] if span is not None else os.pread(fd, length, offset)
-            if native:  # decode straight into the output row (a slice: a view even for 1-D arrays)
-                codec.decode(raw, out=out[position:position + 1].reshape(-1).view(np.uint8))
-            else:
-                out[position] = np.frombuffer(codec.decode(raw), layout.dtype).reshape(out.shape[1:])
+        _decode_chunks(fd, span, start, index, positions, out, layout, path)
     finally:
         os.close(fd)
 
 
-def _gather_raw(span: memoryview, index: np.ndarray, start: int, positions: np.ndarray, out: np.ndarray,
-                dtype: np.dtype[Any]) -> None:
+def _chunk_error(path: Path, position: int, offset: int) -> CorruptStore:
+    return CorruptStore(f"{path}: chunk checksum mismatch at byte {offset} (output row {position}): "
+                        f"the file is damaged")
+
+
+def _decode_chunks(fd: int, span: np.ndarray | None, start: int, index: np.ndarray, positions: np.ndarray,
+                   out: np.ndarray, layout: ShardLayout, path: Path) -> None:
+    """Compressed chunks: check each one's CRC32C, then decode it into its output row."""
+    codec, native, tail = layout.codec, layout.dtype.isnative, 4 * layout.checksum
+    assert codec is not None
+    for position, (offset, length) in zip(positions, index.tolist(), strict=True):
+        raw = span[offset - start: offset - start + length] if span is not None else \
+            np.frombuffer(os.pread(fd, length, offset), np.uint8)
+        if tail:
+            if google_crc32c.value(raw[:-4]) != int.from_bytes(raw[-4:].tobytes(), "little"):
+                raise _chunk_error(path, int(position), offset)
+            raw = raw[:-4]
+        if native:  # decode straight into the output row (a slice: a view even for 1-D arrays)
+            codec.decode(raw, out=out[position:position + 1].reshape(-1).view(np.uint8))
+        else:
+            out[position] = np.frombuffer(codec.decode(raw), layout.dtype).reshape(out.shape[1:])
+
+
+def _gather_raw(span: np.ndarray, index: np.ndarray, start: int, positions: np.ndarray, out: np.ndarray,
+                layout: ShardLayout, path: Path) -> None:
     """Uncompressed chunks: one vectorised gather instead of a decode call per chunk."""
     length = int(index[0, 1])
-    rows = np.frombuffer(span, np.uint8)[(index[:, 0].astype(np.int64) - start)[:, None] + np.arange(length)]
-    out[positions] = rows.view(dtype).reshape(len(index), *out.shape[1:])
+    if np.any(index[:, 1] != length):
+        raise CorruptStore(f"{path}: uncompressed chunks of different lengths in the shard index: the file is damaged")
+    rows = span[(index[:, 0].astype(np.int64) - start)[:, None] + np.arange(length)]
+    if layout.checksum:
+        stored = rows[:, -4:].copy().view("<u4")[:, 0]
+        for k, row in enumerate(rows):  # ≤ 76 bytes a row: the call, not the CRC, is the cost
+            if google_crc32c.value(row[:-4]) != stored[k]:
+                raise _chunk_error(path, int(positions[k]), int(index[k, 0]))
+        rows = rows[:, :-4]
+    out[positions] = np.ascontiguousarray(rows).view(layout.dtype).reshape(len(index), *out.shape[1:])
 
 
 def read_rows(array: zarr.Array, index: np.ndarray, threads: int | None = None) -> np.ndarray:

@@ -3,18 +3,47 @@
 The content goes to a temporary name in the destination's folder (so the rename
 stays on one file system), which :func:`os.replace` then moves over the
 destination in one step. On error the temporary file is removed and the
-destination left as it was.
+destination left as it was. A process killed between the write and the rename
+leaves its temporary behind: :func:`remove_temporaries` sweeps a folder of them
+(and of Zarr's own, ``NAME.<32 hex>.partial``) once no writer is left.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_write"]
+__all__ = ["atomic_write", "is_temporary", "remove_temporaries"]
+
+# atomic_write's ``.<name>.<pid>-<8 hex>.tmp`` and zarr's LocalStore ``<stem>.<32 hex>.partial``
+_TEMPORARY = re.compile(r"(\..+\.\d+-[0-9a-f]{8}\.tmp|.*\.[0-9a-f]{32}\.partial)")
+
+
+def is_temporary(name: str) -> bool:
+    """Whether a file name is one of :func:`atomic_write`'s (or Zarr's) temporaries.
+
+    >>> is_temporary(".0.4242-0123abcd.tmp"), is_temporary("zarr.0123456789abcdef0123456789abcdef.partial")
+    (True, True)
+    >>> is_temporary("0"), is_temporary("zarr.json"), is_temporary("intersection-1.zarr.partial")
+    (False, False, False)
+    """
+    return _TEMPORARY.fullmatch(name) is not None
+
+
+def remove_temporaries(root: str | Path) -> list[Path]:
+    """Delete every temporary file under ``root`` (call only while no writer is at work there).
+
+    Returns:
+        the files removed, sorted.
+    """
+    found = sorted(p for p in Path(root).rglob("*") if p.is_file() and is_temporary(p.name))
+    for path in found:
+        path.unlink(missing_ok=True)
+    return found
 
 
 @contextmanager

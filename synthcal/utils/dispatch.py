@@ -3,19 +3,52 @@
 Generation farms out shards (:mod:`synthcal.generate.pipeline`) and the harness
 runs (:mod:`synthcal.eval.harness`) through :func:`dispatch`; both write their
 results to files, so the order in which tasks finish never shapes the output.
+
+Local worker processes die with their parent: each sets, on Linux, a parent-death
+signal (``prctl(PR_SET_PDEATHSIG, SIGKILL)``) as it starts, so a ``kill -9`` of the
+parent leaves no orphan rendering on (the resource tracker then sees its last
+user gone and exits too). Elsewhere a worker checks its parent at every task.
 """
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import multiprocessing
+import os
+import signal
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import TypeVar
 
-__all__ = ["dispatch"]
+__all__ = ["dispatch", "die_with_parent"]
 
 T = TypeVar("T")
 R = TypeVar("R")
+
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def die_with_parent(parent: int) -> None:
+    """Make this process end when process ``parent`` does (a pool worker's initializer).
+
+    On Linux the kernel sends SIGKILL when the parent dies; if the parent is already
+    gone (it died before this ran), exit now. Elsewhere this does nothing here and
+    :func:`_guarded` checks the parent before each task.
+    """
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _guarded(fn: Callable[[T], R], parent: int, task: T) -> R:
+    """``fn(task)`` unless the parent is gone (a worker orphaned where no death signal exists)."""
+    if os.getppid() != parent:
+        os._exit(1)
+    return fn(task)
 
 
 def dispatch(fn: Callable[[T], R], tasks: Sequence[T], workers: int = 1, scheduler: str | None = None) -> Iterator[R]:
@@ -44,6 +77,9 @@ def dispatch(fn: Callable[[T], R], tasks: Sequence[T], workers: int = 1, schedul
     else:
         # spawn, not fork: the parent may hold threads (OpenCV, torch, the progress bar)
         # that a forked child would inherit mid-state; and it is what every OS has.
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            for future in as_completed([pool.submit(fn, task) for task in tasks]):
+        parent = os.getpid()
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=die_with_parent, initargs=(parent,)) as pool:
+            call = functools.partial(_guarded, fn, parent)
+            for future in as_completed([pool.submit(call, task) for task in tasks]):
                 yield future.result()

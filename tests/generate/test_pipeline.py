@@ -143,3 +143,132 @@ def test_existing_store_of_another_configuration_is_refused(spec, reference):
 
     with pytest.raises(ConfigError, match="different configuration"):
         generate_dataset(spec.model_copy(update={"seed": 99}), reference.parent, progress=False)
+
+
+# --- one writer, clean resumes, no orphans (issue 11) ---------------------------------------
+
+
+def cli_generate(out: Path, *extra: str) -> list[str]:
+    """The `synthcal generate` command line of the module's ``spec`` (smoke profile) as a subprocess."""
+    import sys
+
+    return [sys.executable, "-m", "synthcal.cli", "generate", "intersection-2", "--profile", "smoke",
+            "--config", str(ROOT / "datasets.yaml"), "--out", str(out), "--quiet", *extra]
+
+
+def test_a_second_generate_of_the_same_store_exits_2_naming_the_lock(spec, reference, tmp_path):
+    import os
+    import subprocess
+    import threading
+
+    reached, release = threading.Event(), threading.Event()
+
+    def hold_after_first_shard(count: int) -> None:
+        reached.set()
+        assert release.wait(120)
+
+    first = threading.Thread(target=generate_dataset, args=(spec, tmp_path),
+                             kwargs={"progress": False, "on_shard": hold_after_first_shard})
+    first.start()
+    try:
+        assert reached.wait(120)
+        before = store_files(tmp_path / f"{spec.name}.zarr.partial")
+        second = subprocess.run(cli_generate(tmp_path), capture_output=True, text=True, timeout=120)
+        after = store_files(tmp_path / f"{spec.name}.zarr.partial")
+    finally:
+        release.set()
+        first.join()
+    assert second.returncode == 2, second.stderr
+    assert second.stderr.startswith(f"synthcal: error: {tmp_path / spec.name}.zarr: another synthcal process "
+                                    f"(PID {os.getpid()}) is writing this store (lock {tmp_path}/.{spec.name}.lock)")
+    assert after == before, "the refused run touched nothing"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f".{spec.name}.lock", f"{spec.name}.zarr"]
+    assert store_files(tmp_path / f"{spec.name}.zarr") == store_files(reference)
+
+
+def descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (from /proc)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    found, todo = set(), [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found.add(child)
+            todo.append(child)
+    return found
+
+
+def alive(pid: int) -> bool:
+    """Running, not a zombie awaiting its reaper."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_kill_9_leaves_no_worker_and_the_run_resumes_to_the_same_bytes(spec, tmp_path):
+    import signal
+    import subprocess
+    import time
+
+    big = spec.model_copy(update={"pool_size": 240})  # 30 shards: time to kill it mid-run
+    out = tmp_path / "killed"
+    run = subprocess.Popen(cli_generate(out, "--n", "240", "--workers", "2"))
+    progress = out / f".{spec.name}.zarr.progress"
+    deadline = time.monotonic() + 120
+    while not any(progress.glob("*.done")) and run.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    workers = descendants(run.pid)
+    run.send_signal(signal.SIGKILL)
+    run.wait()
+    assert not (out / f"{spec.name}.zarr").exists(), "killed mid-run"
+    assert len(workers) >= 2, "two workers (and the resource tracker) were running"
+    deadline = time.monotonic() + 30  # a bound on waiting, not a speed requirement
+    while any(map(alive, workers)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [pid for pid in workers if alive(pid)], "no process of the killed run is left"
+
+    # what a kill between a file's write and its rename leaves (atomic_write's and zarr's temporaries)
+    partial = out / f"{spec.name}.zarr.partial"
+    shard_folder = partial / "image" / "c" / "0" / "0" / "0"
+    shard_folder.mkdir(parents=True, exist_ok=True)  # shard 0 may not have been written yet
+    (shard_folder / ".0.4242-0123abcd.tmp").write_bytes(b"torn")
+    (partial / "zarr.0123456789abcdef0123456789abcdef.partial").write_bytes(b"torn")
+    resumed = generate_dataset(big, out, progress=False)
+    fresh = generate_dataset(big, tmp_path / "fresh", progress=False)
+    assert store_files(resumed) == store_files(fresh), "same file list, same bytes"
+    assert sorted(p.name for p in out.iterdir()) == [f".{spec.name}.lock", f"{spec.name}.zarr"]
+
+
+def test_a_progress_folder_left_by_a_kill_after_the_final_rename_goes_away(spec, reference, tmp_path):
+    import shutil
+
+    store = Path(shutil.copytree(reference, tmp_path / reference.name))
+    progress = tmp_path / f".{spec.name}.zarr.progress"
+    progress.mkdir()
+    (progress / "shard-0000000.done").touch()
+    assert generate_dataset(spec, tmp_path, progress=False) == store
+    assert not progress.exists() and store_files(store) == store_files(reference)
+
+
+def test_dataset_names_are_plain_names(tmp_path):
+    from synthcal.config import ConfigError
+    from synthcal.generate.pipeline import store_path
+
+    text = (ROOT / "datasets.yaml").read_text().replace("\n  intersection-2:", "\n  ../escaped:", 1)
+    assert "../escaped:" in text
+    config = tmp_path / "datasets.yaml"
+    config.write_text(text)
+    with pytest.raises(ConfigError, match=rf"{config}: datasets\.\.\./escaped: a dataset name is a plain name.*"
+                                          r"\(value '\.\./escaped'\)"):
+        load_config(config)
+    for name in ("/abs", "a/b", "..", ".", ""):
+        with pytest.raises(ConfigError, match="plain name"):
+            store_path(tmp_path, name)
+    assert store_path(tmp_path, "v1.2_b-c") == tmp_path / "v1.2_b-c.zarr"

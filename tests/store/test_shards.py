@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import zarr
-from zarr.codecs import BloscCodec, ZstdCodec
+from zarr.codecs import BloscCodec, Crc32cCodec, ZstdCodec
 
 from synthcal.store.shards import read_rows, shard_layout, write_shard
 
@@ -20,8 +20,14 @@ def files(root: Path) -> dict[str, bytes]:
     return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
-@pytest.mark.parametrize("compressor", [ZstdCodec(level=3), BloscCodec(cname="lz4", clevel=5, shuffle="shuffle"), None],
-                         ids=["zstd", "blosc-lz4", "uncompressed"])
+LZ4 = BloscCodec(cname="lz4", clevel=5, shuffle="shuffle")
+
+
+@pytest.mark.parametrize("compressor", [
+    ZstdCodec(level=3), LZ4, None,
+    # the store's chains (synthcal-store/2): each chunk followed by its CRC32C
+    (ZstdCodec(level=3), Crc32cCodec()), (LZ4, Crc32cCodec()), (Crc32cCodec(),),
+], ids=["zstd", "blosc-lz4", "uncompressed", "zstd+crc32c", "blosc-lz4+crc32c", "crc32c"])
 def test_same_bytes_as_zarr(tmp_path, compressor):
     rng = np.random.default_rng(0)
     cases = {
@@ -77,6 +83,9 @@ def test_unsupported_layouts_are_refused_naming_array_and_codec(tmp_path):
     gzip = make_array(tmp_path, "gz", (4, 3), "uint8", 2, GzipCodec())
     with pytest.raises(UnsupportedLayout, match=r"gz: inner codecs \['bytes', 'gzip'\]"):
         shard_layout(gzip)
+    before_checksum = make_array(tmp_path, "crc-first", (4, 3), "uint8", 2, (Crc32cCodec(), GzipCodec()))
+    with pytest.raises(UnsupportedLayout, match=r"crc-first: inner codecs \['bytes', 'crc32c', 'gzip'\]"):
+        shard_layout(before_checksum)
     layout = shard_layout(make_array(tmp_path, "ok", (4, 3), "uint8", 2))
     with pytest.raises(ValueError, match=r"ok: shard 0: samples \(2, 4\) uint8 do not fit"):
         write_shard(layout, 0, np.ones((2, 4), np.uint8))

@@ -5,12 +5,24 @@ Convention: every homography maps a bird's-eye pixel to an image pixel,
 ``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).
 """
 
-from synthcal.eval.metrics import check_homography, completeness, evaluate, iou, iou_part, iou_whole, summarize
+from synthcal.eval.metrics import (
+    METRICS,
+    check_homography,
+    completeness,
+    evaluate,
+    iou,
+    iou_part,
+    iou_whole,
+    readings,
+    summarize,
+)
 from synthcal.eval.tables import LAYOUTS, aggregate, format_table, paper_results, table_frame
 
 __all__ = [
+    "METRICS",
     "check_homography",
     "iou",
+    "readings",
     "iou_part",
     "iou_whole",
     "evaluate",

@@ -19,6 +19,8 @@ column             needed  meaning
 ``iou`` …          yes     the mean over the run's test images of a metric of
                            :func:`synthcal.eval.metrics.evaluate`, a fraction in
                            [0, 1] (failures counted as 0); pick it with ``value``
+``completeness``   no      share of the run's test images with a valid estimate
+                           (a fraction; shown "–" where missing)
 =================  ======  ==========================================================
 
 A missing optional column, or a missing value (estimators without training or
@@ -39,13 +41,18 @@ the paper's model tables), then unknown values alphabetically, "–" last.
 
 Cells
 -----
+Beside every column, its completeness in percent (mean over seeds, 1 decimal):
+a mean IoU is only comparable with the share of images it counts as valid.
 IoU in percent, ``mean ± std`` over seeds with 2 decimals. ``std`` is the sample
 standard deviation (``ddof = 1``): the five seeds are five draws of the split,
 and the spread of *those draws* is what a reader compares against; a single
 seed shows the mean alone. The highest mean of a row (compared as displayed,
 so ties share it) is bold — Markdown ``**…**``, LaTeX ``\\textbf{…}`` — when the
 row has at least two values. ``compare_paper=True`` adds the published figure
-beside each column ("paper"), joined on every key.
+beside each column ("paper"), joined on every key; the paper's IoU is undefined
+beyond its prose, so the comparison is offered for each of its three readings
+(``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8), and the caption names the
+reading shown.
 
 Example
 -------
@@ -56,9 +63,9 @@ Example
 >>> text = format_table(runs, "matching")
 >>> for line in text.splitlines()[:3]:
 ...     print(line)
-| dataset | mse | top-mse |
-|:---|---:|---:|
-| intersection-1 | 81.00 ± 1.41 | **85.00 ± 1.41** |
+| dataset | mse | mse (complete %) | top-mse | top-mse (complete %) |
+|:---|---:|---:|---:|---:|
+| intersection-1 | 81.00 ± 1.41 | – | **85.00 ± 1.41** | – |
 >>> text.splitlines()[-1].split(". ")[-1]
 'model: proposed; training: end-to-end; loss: top-mse.'
 """
@@ -73,7 +80,10 @@ from importlib import resources
 import numpy as np
 import pandas as pd
 
-__all__ = ["KEYS", "MISSING", "Layout", "LAYOUTS", "paper_results", "aggregate", "table_frame", "format_table"]
+from synthcal.eval.metrics import DESCRIPTIONS, READINGS
+
+__all__ = ["KEYS", "MISSING", "Layout", "LAYOUTS", "paper_results", "aggregate", "table_frame", "format_table",
+           "failed_runs"]
 
 KEYS = ("dataset", "model", "training", "loss", "matching_score")
 REQUIRED = ("dataset", "model", "seed")
@@ -126,6 +136,8 @@ def _validate(results: pd.DataFrame, value: str) -> pd.DataFrame:
     if ((values < 0) | (values > 1)).any():
         raise ValueError(f"column {value!r} must be a fraction in [0, 1] (tables convert to percent)")
     frame[value] = values
+    frame["completeness"] = (pd.to_numeric(frame["completeness"], errors="raise") if "completeness" in frame
+                             else np.nan)
     duplicated = frame.duplicated([*KEYS, "seed"], keep=False)
     if duplicated.any():
         raise ValueError(f"several results for the same keys and seed:\n{frame.loc[duplicated, [*KEYS, 'seed']]}")
@@ -141,12 +153,15 @@ def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:
 
     Returns:
         DataFrame with the five keys and ``mean``, ``std`` (NaN for one seed),
-        ``n_seeds``.
+        ``n_seeds``, ``completeness`` (mean over seeds; NaN where the results have
+        none).
     """
     frame = _validate(results, value)
-    grouped = frame.groupby(list(KEYS), sort=False)[value]
-    out = grouped.agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count").reset_index()
-    out[["mean", "std"]] *= 100.0
+    grouped = frame.groupby(list(KEYS), sort=False)
+    out = grouped[value].agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count")
+    out["completeness"] = grouped["completeness"].mean()
+    out = out.reset_index()
+    out[["mean", "std", "completeness"]] *= 100.0
     return out
 
 
@@ -193,28 +208,29 @@ def table_frame(
     Args:
         results: per-run results (module docstring).
         layout: ``matching``, ``models`` or ``mixed``.
-        value: the metric column (the paper reports ``iou`` only).
+        value: the metric column (the paper's IoU is one of :data:`READINGS`).
         compare_paper: add the published figure (column ``paper``).
         aliases: our dataset label → the paper's, for the join only (e.g.
             ``{"soccer": "worldcup2014"}``).
 
     Returns:
         DataFrame indexed by the row keys, with column MultiIndex
-        ``(column value, field)``, fields ``mean``, ``std``, ``n_seeds`` and
-        optionally ``paper``; ``attrs["constants"]`` holds the single-valued keys,
-        ``attrs["layout"]`` the layout name.
+        ``(column value, field)``, fields ``mean``, ``std``, ``n_seeds``,
+        ``completeness`` and optionally ``paper``; ``attrs["constants"]`` holds the
+        single-valued keys, ``attrs["layout"]`` the layout name, ``attrs["value"]``
+        the metric.
     """
     if layout not in LAYOUTS:
         raise ValueError(f"unknown layout {layout!r}; one of {sorted(LAYOUTS)}")
-    if compare_paper and value != "iou":
-        raise ValueError(f"the paper reports only 'iou', not {value!r}")
+    if compare_paper and value not in READINGS:
+        raise ValueError(f"the paper reports only its IoU (the readings {', '.join(READINGS)}), not {value!r}")
     spec = LAYOUTS[layout]
     cells = aggregate(results, value)
     cells = cells[cells["dataset"].str.startswith("mixed-") == spec.mixed]
     if cells.empty:
         kind = "mixed-dictionary (mixed-*)" if spec.mixed else "own-dictionary"
         raise ValueError(f"no {kind} results for layout {layout!r}")
-    fields = ["mean", "std", "n_seeds"]
+    fields = ["mean", "std", "n_seeds", "completeness"]
     varying = [k for k in KEYS if k != spec.columns and (k == "dataset" or cells[k].nunique() > 1)]
     constants = {k: cells[k].iloc[0] for k in KEYS if k != spec.columns and k not in varying}
     # Keys are unique per cell after aggregation, so unstacking loses nothing.
@@ -230,7 +246,8 @@ def table_frame(
     if compare_paper:
         table = _with_paper(table, varying, spec.columns, constants, aliases or {})
     table.columns.names = [spec.columns, "field"]
-    table.attrs.update(constants=constants, layout=layout, n_seeds=sorted(cells["n_seeds"].unique().tolist()))
+    table.attrs.update(constants=constants, layout=layout, n_seeds=sorted(cells["n_seeds"].unique().tolist()),
+                       value=value)
     return table
 
 
@@ -256,7 +273,7 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
     compare = "paper" in table.columns.get_level_values(1)
     header = list(table.index.names)
     for value in column_values:
-        header += [value, f"{value} (paper)"] if compare else [value]
+        header += [value, f"{value} (complete %)"] + ([f"{value} (paper)"] if compare else [])
     body, bold, previous = [], [], None
     for key, row in table.iterrows():
         key = key if isinstance(key, tuple) else (key,)
@@ -268,6 +285,9 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
         for value, mean in zip(column_values, means, strict=True):
             cells.append(_cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")]))
             flags.append(bool(mean == best))
+            complete = row[(value, "completeness")]
+            cells.append(MISSING if pd.isna(complete) else f"{complete:.1f}")
+            flags.append(False)
             if compare:
                 paper = row[(value, "paper")]
                 cells.append(MISSING if pd.isna(paper) else f"{paper:.2f}")
@@ -281,7 +301,10 @@ def _caption(table: pd.DataFrame) -> str:
     seeds = table.attrs.get("n_seeds", [])
     n = str(seeds[0]) if len(seeds) == 1 else f"{min(seeds)}–{max(seeds)}" if seeds else "?"
     columns = table.columns.names[0]
-    text = f"IoU (%) by {columns}, mean ± std over {n} seeds (std with ddof = 1); best per row in bold."
+    value = table.attrs.get("value", "iou")
+    reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
+    text = (f"{value} (%){reading}; by {columns}, mean ± std over {n} seeds (std with ddof = 1); best per row in "
+            f"bold; complete %: share of test images with a valid estimate, mean over seeds.")
     constants = table.attrs.get("constants", {})
     if constants:
         text += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."
@@ -302,7 +325,8 @@ def format_table(
         results: per-run results (module docstring).
         layout: ``matching``, ``models`` or ``mixed``.
         fmt: ``md``, ``latex`` or ``csv`` (long form: the row keys, the column key,
-            ``mean``, ``std``, ``n_seeds`` and ``paper``, plain numbers).
+            ``mean``, ``std``, ``n_seeds``, ``completeness`` and ``paper``, plain
+            numbers in percent).
         value: the metric column.
         compare_paper: add the published figures.
         aliases: our dataset label → the paper's, for the join.
@@ -335,3 +359,21 @@ def format_table(
     lines += [" & ".join(tex(c, b) for c, b in zip(cells, flags, strict=True)) + r" \\" for cells, flags in zip(body, bold, strict=True)]
     lines += [r"\hline", r"\end{tabular}", "% " + _latex_escape(_caption(table))]
     return "\n".join(lines) + "\n"
+
+
+def failed_runs(results: pd.DataFrame) -> list[str]:
+    """One line per failed run (status not ``ok``): its id and its reason.
+
+    Args:
+        results: :func:`synthcal.eval.harness.collect_results`'s frame (``status``,
+            ``run_id`` and ``error`` columns; none of them: no line).
+
+    Returns:
+        ``"failed: <run id>: <reason>"`` lines, in the frame's order.
+    """
+    if "status" not in results:
+        return []
+    failed = results[results["status"].astype(str) != "ok"]
+    ids = failed["run_id"] if "run_id" in failed else failed.index.astype(str)
+    errors = failed["error"] if "error" in failed else pd.Series("", index=failed.index)
+    return [f"failed: {run_id}: {error or 'no reason recorded'}" for run_id, error in zip(ids, errors, strict=True)]

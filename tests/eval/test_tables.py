@@ -7,18 +7,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from synthcal.eval.tables import KEYS, aggregate, format_table, paper_results, table_frame
+from synthcal.eval.tables import KEYS, aggregate, failed_runs, format_table, paper_results, table_frame
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def runs(rows):
-    """rows: (dataset, model, training, loss, matching_score, [iou per seed])."""
+def runs(rows, complete=None):
+    """rows: (dataset, model, training, loss, matching_score, [iou per seed]); complete: row → [per seed]."""
     out = []
-    for dataset, model, training, loss, score, values in rows:
+    for k, (dataset, model, training, loss, score, values) in enumerate(rows):
         for seed, value in enumerate(values):
             out.append(dict(dataset=dataset, model=model, training=training, loss=loss, matching_score=score,
-                            seed=seed, iou=value))
+                            seed=seed, iou=value, completeness=(complete or {}).get(k, [1.0] * len(values))[seed]))
     return pd.DataFrame(out)
 
 
@@ -28,7 +28,7 @@ MATCHING = runs([
     ("intersection-1", "proposed", "end-to-end", "mse", "mse", [0.70, 0.71, 0.72]),  # 71.00 ± 1.00
     ("intersection-1", "proposed", "end-to-end", "mse", "top-mse", [0.60, 0.60, 0.60]),  # 60.00 ± 0.00
     ("worldcup2014", "proposed", "end-to-end", "top-mse", "mse", [0.5]),  # one seed, no top-mse run
-])
+], complete={3: [1.0, 0.5, 0.9]})  # (mse, top-mse): 80 % of its estimates valid on average
 
 
 def test_paper_data_is_packaged_and_consistent():
@@ -52,12 +52,13 @@ def test_aggregate_mean_and_sample_std_by_hand():
 def test_markdown_matching_table():
     text = format_table(MATCHING, "matching")
     lines = text.splitlines()
-    assert lines[0] == "| dataset | loss | mse | top-mse |"
+    assert lines[0] == "| dataset | loss | mse | mse (complete %) | top-mse | top-mse (complete %) |"
     # Paper order: worldcup2014 first; losses top-mse before mse.
-    assert lines[2] == "| worldcup2014 | top-mse | 50.00 | – |"  # one seed: mean alone; missing: "–"
-    assert lines[3] == "| intersection-1 | top-mse | 82.00 ± 2.00 | **87.00 ± 2.65** |"
-    assert lines[4] == "|  | mse | **71.00 ± 1.00** | 60.00 ± 0.00 |"
+    assert lines[2] == "| worldcup2014 | top-mse | 50.00 | 100.0 | – | – |"  # one seed: mean alone; missing: "–"
+    assert lines[3] == "| intersection-1 | top-mse | 82.00 ± 2.00 | 100.0 | **87.00 ± 2.65** | 100.0 |"
+    assert lines[4] == "|  | mse | **71.00 ± 1.00** | 100.0 | 60.00 ± 0.00 | 80.0 |"  # completeness beside each mean
     assert "model: proposed; training: end-to-end" in text  # constant keys go to the caption
+    assert text.splitlines()[-1].startswith("iou (%) — the paper's IoU read as the mean over classes 1-3")
 
 
 def test_bold_ties_share_and_single_values_are_not_bold():
@@ -69,7 +70,7 @@ def test_bold_ties_share_and_single_values_are_not_bold():
 
 def test_paper_comparison_joins_the_published_figure():
     text = format_table(MATCHING, "matching", compare_paper=True)
-    assert "| intersection-1 | top-mse | 82.00 ± 2.00 | 87.11 | **87.00 ± 2.65** | 87.42 |" in text
+    assert "| intersection-1 | top-mse | 82.00 ± 2.00 | 100.0 | 87.11 | **87.00 ± 2.65** | 100.0 | 87.42 |" in text
     models = runs([
         ("worldcup2014", "sha2020", "step-by-step", "dice", "top-mse", [0.80, 0.81]),
         ("worldcup2014", "proposed", "step-by-step", "dice", "top-mse", [0.82, 0.83]),
@@ -101,13 +102,19 @@ def test_layouts_select_datasets_and_columns():
 
 def test_latex_and_csv():
     tex = format_table(MATCHING, "matching", fmt="latex")
-    assert r"\begin{tabular}{llrr}" in tex
-    assert r"intersection-1 & top-mse & 82.00 $\pm$ 2.00 & \textbf{87.00 $\pm$ 2.65} \\" in tex
+    assert r"\begin{tabular}{llrrrr}" in tex
+    assert r"intersection-1 & top-mse & 82.00 $\pm$ 2.00 & 100.0 & \textbf{87.00 $\pm$ 2.65} & 100.0 \\" in tex
+    assert r"& mse & \textbf{71.00 $\pm$ 1.00} & 100.0 & 60.00 $\pm$ 0.00 & 80.0 \\" in tex
+    assert "complete \\%: share of test images with a valid estimate" in tex
     assert "–" not in tex and "±" not in tex  # written "--" and "$\pm$"
     long = pd.read_csv(io.StringIO(format_table(MATCHING, "matching", fmt="csv", compare_paper=True)))
-    assert list(long.columns) == ["dataset", "loss", "matching_score", "mean", "std", "n_seeds", "paper"]
+    assert list(long.columns) == ["dataset", "loss", "matching_score", "mean", "std", "n_seeds", "completeness",
+                                  "paper"]
     row = long[(long["dataset"] == "intersection-1") & (long["loss"] == "mse") & (long["matching_score"] == "mse")]
-    assert row[["mean", "std", "n_seeds", "paper"]].iloc[0].tolist() == pytest.approx([71.0, 1.0, 3, 84.32])
+    assert row[["mean", "std", "n_seeds", "completeness", "paper"]].iloc[0].tolist() == pytest.approx(
+        [71.0, 1.0, 3, 100.0, 84.32])
+    row = long[(long["dataset"] == "intersection-1") & (long["loss"] == "mse") & (long["matching_score"] == "top-mse")]
+    assert row["completeness"].iloc[0] == pytest.approx(80.0)
     # The missing (worldcup2014, top-mse) cell still carries the paper's figure.
     row = long[(long["dataset"] == "worldcup2014") & (long["matching_score"] == "top-mse")]
     assert np.isnan(row["mean"].iloc[0]) and row["paper"].iloc[0] == 84.21
@@ -116,7 +123,8 @@ def test_latex_and_csv():
 def test_missing_optional_keys_show_a_dash():
     simple = pd.DataFrame({"dataset": "intersection-3", "model": ["identity", "template"] * 2,
                            "seed": [0, 0, 1, 1], "iou": [0.1, 0.5, 0.2, 0.6]})
-    assert "| intersection-3 | 15.00 ± 7.07 | **55.00 ± 7.07** |" in format_table(simple, "models")
+    # No completeness column in the results: "–" beside each mean.
+    assert "| intersection-3 | 15.00 ± 7.07 | – | **55.00 ± 7.07** | – |" in format_table(simple, "models")
 
 
 @pytest.mark.parametrize("change, message", [
@@ -130,9 +138,27 @@ def test_bad_results_are_refused(change, message):
 
 
 def test_bad_requests_are_refused():
-    with pytest.raises(ValueError, match="only 'iou'"):
+    with pytest.raises(ValueError, match="only its IoU"):
         format_table(MATCHING.assign(iou_part=0.5), "matching", value="iou_part", compare_paper=True)
     with pytest.raises(ValueError, match="unknown layout"):
         format_table(MATCHING, "nope")
     with pytest.raises(ValueError, match="unknown format"):
         format_table(MATCHING, "matching", fmt="xlsx")
+
+
+@pytest.mark.parametrize("reading, words", [("iou_bg", "classes 0-3 (background included)"),
+                                            ("iou_weighted", "jaccard_score average='weighted'")])
+def test_every_reading_of_the_papers_iou_compares_and_is_named(reading, words):
+    frame = MATCHING.assign(**{reading: MATCHING["iou"] / 2})
+    text = format_table(frame, "matching", value=reading, compare_paper=True)
+    # Our halved means beside the same published figures; the caption names the reading.
+    assert "| intersection-1 | top-mse | 41.00 ± 1.00 | 100.0 | 87.11 | **43.50 ± 1.32** | 100.0 | 87.42 |" in text
+    assert text.splitlines()[-1].startswith(f"{reading} (%) — ") and words in text.splitlines()[-1]
+
+
+def test_failed_runs_are_listed_with_their_reason():
+    frame = pd.DataFrame({"run_id": ["a", "b", "c"], "status": ["ok", "failed", "failed"],
+                          "error": ["", "all 4 estimates invalid: non-finite entries", "fit: timed out after 5 s"]})
+    assert failed_runs(frame) == ["failed: b: all 4 estimates invalid: non-finite entries",
+                                  "failed: c: fit: timed out after 5 s"]
+    assert failed_runs(MATCHING) == []

@@ -45,6 +45,9 @@ class Scene:
             has none.
         pixels_per_metre: ground scale of the bird's-eye image.
         description: one line for listings.
+        field: the playing field, the polygon ``iou_part`` is clipped to (SPEC §4,
+            §8): ``(u, v)`` vertices in bird's-eye pixels, or None for the whole
+            scene (:meth:`field_polygon` resolves it).
     """
 
     name: str
@@ -56,6 +59,14 @@ class Scene:
     camera_position: tuple[float, float, float] | None = None
     pixels_per_metre: float = 10.0
     description: str = ""
+    field: tuple[tuple[float, float], ...] | None = None
+
+    def field_polygon(self) -> list[list[float]]:
+        """The field's vertices ``[[u, v], ...]``; the scene rectangle ``[-0.5, Ws − 0.5] × [-0.5, Hs − 0.5]`` by default."""
+        if self.field is not None:
+            return [[float(u), float(v)] for u, v in self.field]
+        height, width = self.semantic.shape[:2]
+        return [[-0.5, -0.5], [width - 0.5, -0.5], [width - 0.5, height - 0.5], [-0.5, height - 0.5]]
 
 
 def freeze(array: np.ndarray) -> np.ndarray:

@@ -35,6 +35,10 @@ circle makes the map's topology informative.
 The areas are found by flood-filling the rasterised lines from seed points
 inside each area, so they follow the model's own geometry exactly.
 
+Field (SPEC §4): the pitch rectangle between the touchlines' and goal lines'
+centres, u ∈ [100, 1150], v ∈ [100, 780] (:data:`FIELD`) — what ``iou_part``
+is clipped to, as the sports-field literature clips to its pitch template.
+
 Camera: the default position is pitch point (52.5 m, −45 m) at 17 m height (the
 World Cup 2014 camera statistics), i.e. ``(X, Y, Z) = (625, 1230, 170)`` px — it
 stands outside the image, beyond the near touchline; ``heading_deg = −90`` turns
@@ -61,7 +65,7 @@ from .dressing import MaterialLook, add_grain, base_colours, fill_rgb, shade
 from .roadkit import SHIFT, circle, fixed
 
 __all__ = ["PITCH_LENGTH_M", "PITCH_WIDTH_M", "PPM", "MARGIN_PX", "SIZE", "CLASSES", "PALETTE", "CAMERA_POSITION",
-           "HEADING_DEG", "pitch_to_pixel", "pitch_model", "build_soccer"]
+           "HEADING_DEG", "FIELD", "pitch_to_pixel", "pitch_model", "build_soccer"]
 
 PITCH_LENGTH_M = 105.0
 PITCH_WIDTH_M = 68.0
@@ -93,6 +97,10 @@ def pitch_to_pixel(x_m, y_m):
 
 _cam_u, _cam_v = pitch_to_pixel(CAMERA_POSITION_M[0], CAMERA_POSITION_M[1])
 CAMERA_POSITION = (float(_cam_u), float(_cam_v), CAMERA_POSITION_M[2] * PPM)
+# The field ``iou_part`` is clipped to (SPEC §4): the 105 × 68 m pitch between the
+# lines' centres, as the sports-field literature's pitch template — not the margin.
+_field_u, _field_v = pitch_to_pixel([0.0, PITCH_LENGTH_M, PITCH_LENGTH_M, 0.0], [0.0, 0.0, PITCH_WIDTH_M, PITCH_WIDTH_M])
+FIELD = tuple((float(u), float(v)) for u, v in zip(_field_u, _field_v, strict=True))
 
 
 @lru_cache(maxsize=1)
@@ -190,7 +198,7 @@ def build_soccer(description: str = "") -> Scene:
         fill_rgb(rgb, circle((pu, pv), 0.35 * PPM, 30.0), colour)
         fill_rgb(rgb, circle((pu, pv), 0.14 * PPM, 60.0), (60, 40, 30))  # head
     return Scene("soccer", freeze(rgb), freeze(semantic), CLASSES, PALETTE, heading_deg=HEADING_DEG,
-                 camera_position=CAMERA_POSITION, pixels_per_metre=PPM, description=description)
+                 camera_position=CAMERA_POSITION, pixels_per_metre=PPM, description=description, field=FIELD)
 
 
 def _quad(p: tuple[float, float], q: tuple[float, float], half: float) -> list[tuple[float, float]]:

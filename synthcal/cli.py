@@ -7,12 +7,14 @@ as one clear message with exit status 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 import time
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -209,6 +211,25 @@ def _cmd_info(args: argparse.Namespace) -> None:
     _print_splits(group)
 
 
+def _cmd_verify(args: argparse.Namespace) -> int:
+    """Exit 0 when every store is whole, 1 when any file is damaged (each one printed)."""
+    from synthcal.store import verify_store
+
+    status = 0
+    for store in args.stores:
+        report = verify_store(store)
+        for note in report.notes:
+            print(f"note: {note}")
+        if report.ok:
+            print(f"OK {store}")
+        else:
+            status = 1
+            print(f"DAMAGED {store}")
+            for problem in report.problems:
+                print(f"  {problem}")
+    return status
+
+
 def _print_splits(group: zarr.Group) -> None:
     from synthcal.store import array_at, attributes, group_at
     from synthcal.store.splits import drawn_seeds
@@ -293,11 +314,12 @@ def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> No
     _print_tables(frame, None, "md", False)
 
 
-def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool) -> None:
+def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool,
+                  metric: str = "iou") -> None:
     """Print the tables of a results frame, one per segmentation / profile in it.
 
     ``layout`` None picks ``models`` for own-dictionary datasets and ``mixed`` for
-    mixed ones, each where there are results.
+    mixed ones, each where there are results. ``metric``: the column shown.
     """
     from synthcal.eval.harness import table_runs
     from synthcal.eval.tables import format_table
@@ -312,7 +334,7 @@ def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pap
             if title and fmt != "csv":
                 print(f"{'%' if fmt == 'latex' else '###'} {title}\n")
             try:
-                print(format_table(part, name, fmt, compare_paper=compare_paper,
+                print(format_table(part, name, fmt, value=metric, compare_paper=compare_paper,
                                    aliases={"soccer": "worldcup2014"}))
             except ValueError as error:
                 raise _UserError(f"table {name!r}: {error}") from None
@@ -343,21 +365,37 @@ def _cmd_bench(args: argparse.Namespace) -> None:
     runs = expand_runs(args.data, args.datasets, args.estimator, parse_seeds(args.seeds), args.profile,
                        training.settings(), args.training, args.loss, args.matching, segmentations)
     started = time.perf_counter()
-    frame = run_sweep(runs, args.results, device=args.device, scheduler=args.scheduler, progress=not args.quiet)
+    frame = run_sweep(runs, args.results, device=args.device, scheduler=args.scheduler, progress=not args.quiet,
+                      timeout=args.timeout or None)
     ids = {run.id for run in runs}
     frame = frame[frame["run_id"].isin(ids)]
     failed = frame[frame["status"] != "ok"]
     print(f"{len(runs)} runs ({len(failed)} failed) in {time.perf_counter() - started:.0f} s; "
           f"results in {args.results}\n")
     for row in failed.itertuples():
-        print(f"  failed: {row.run_id}")
+        print(f"  failed: {row.run_id}: {row.error or 'no reason recorded'}")
     _print_tables(frame, None, "md", False)
 
 
 def _cmd_table(args: argparse.Namespace) -> None:
     from synthcal.eval.harness import collect_results
+    from synthcal.eval.metrics import METRICS
+    from synthcal.eval.tables import failed_runs
 
-    _print_tables(collect_results(args.results), args.layout, args.format, args.compare_paper)
+    if args.metric not in METRICS:
+        raise _UserError(f"--metric: unknown metric {args.metric!r}; one of {', '.join(METRICS)}")
+    if not args.results.is_dir():
+        raise _UserError(f"{args.results}: no such results folder")
+    frame = collect_results(args.results)
+    if frame.empty:
+        raise _UserError(f"{args.results}: no finished runs")
+    _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric)
+    # Failed runs count in the means (IoU 0, completeness 0); say which and why, off stdout for CSV.
+    for line in failed_runs(frame):
+        if args.format == "csv":
+            print(line, file=sys.stderr)
+        else:
+            print(("% " if args.format == "latex" else "") + line)
 
 
 def _cmd_plot(args: argparse.Namespace) -> None:
@@ -370,6 +408,21 @@ def _cmd_plot(args: argparse.Namespace) -> None:
     print(plot_iou(frame, args.output / "iou.png"))
     for dataset in dict.fromkeys(frame["dataset"]):
         print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count))
+
+
+# = synthcal.eval.harness.DEFAULT_TIMEOUT, written out so that parsing imports no torch.
+_DEFAULT_TIMEOUT = 21600.0
+
+
+def _seconds(text: str) -> float:
+    """``--timeout``: a number of seconds, 0 or more."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
+    return value
 
 
 def _add_config(parser: argparse.ArgumentParser) -> None:
@@ -424,6 +477,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the raw attributes")
     p.set_defaults(func=_cmd_info)
 
+    p = sub.add_parser("verify", help="read stores back whole: manifest, every shard index and chunk checksum, "
+                                       "every chunk decodes; exit 1 when any file is damaged")
+    p.add_argument("stores", nargs="+", type=Path, metavar="STORE")
+    p.set_defaults(func=_cmd_verify)
+
     p = sub.add_parser("show", help="montage of samples: image | semantic | overlay")
     p.add_argument("store", type=Path)
     p.add_argument("-n", type=int, default=16)
@@ -459,6 +517,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="default: the profile's")
     p.add_argument("--device", default="auto", help="torch device: auto (CUDA when available), cpu, cuda")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the runs on this Dask scheduler")
+    p.add_argument("--timeout", type=_seconds, default=_DEFAULT_TIMEOUT, metavar="SECONDS",
+                   help="time limit of each run, which runs in a process of its own; one that exceeds it, "
+                        "crashes or exits is recorded as failed and the sweep goes on "
+                        f"(default {_DEFAULT_TIMEOUT:g} = 6 h; 0: none)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_config(p)
     p.set_defaults(func=_cmd_bench)
@@ -468,7 +530,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--layout", choices=["models", "matching", "mixed"], default=None,
                    help="default: models (own dictionaries) and mixed (mixed dictionaries) where present")
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md")
-    p.add_argument("--compare-paper", action="store_true", help="add the published figures")
+    p.add_argument("--compare-paper", action="store_true",
+                   help="add the published figures (for each reading of the paper's IoU: iou, iou_bg, iou_weighted)")
+    p.add_argument("--metric", default="iou",
+                   help="iou (default; mean over classes 1-3), iou_bg (classes 0-3), iou_weighted (sklearn's "
+                        "weighted Jaccard, as the public re-implementation of Sha et al.), iou_part, iou_whole")
     p.set_defaults(func=_cmd_table)
 
     p = sub.add_parser("plot", help="IoU bars per dataset and estimator, and overlays of test images")
@@ -487,12 +553,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     from synthcal.store import StoreError
 
     args = build_parser().parse_args(argv)
+    default_format = warnings.formatwarning
+    warnings.formatwarning = functools.partial(_format_warning, default_format)
     try:
-        args.func(args)
+        status = args.func(args)
     except (ConfigError, SceneError, StoreError, EstimatorError, _UserError) as exc:
         print(f"synthcal: error: {exc}", file=sys.stderr)
         return 2
-    return 0
+    except OSError as exc:  # disk full, permission denied, a folder where a file should be: name the path
+        where = ": ".join(str(name) for name in (exc.filename, exc.filename2) if name is not None)
+        print(f"synthcal: error: {where + ': ' if where else ''}{exc.strerror or exc}", file=sys.stderr)
+        return 2
+    finally:
+        warnings.formatwarning = default_format
+    return status if isinstance(status, int) else 0
+
+
+def _format_warning(default: Callable[..., str], message: Warning | str, category: type[Warning],
+                    *args: Any, **kwargs: Any) -> str:
+    """synthcal's own warnings as ``synthcal: warning: …`` (they name their file); others as Python does."""
+    if category.__module__.startswith("synthcal"):
+        return f"synthcal: warning: {message}\n"
+    return default(message, category, *args, **kwargs)
 
 
 if __name__ == "__main__":

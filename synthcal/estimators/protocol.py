@@ -26,6 +26,13 @@ An estimator is any class with
   harness calls it with the *true* class maps of the test images, so that the
   segmentation is the same, perfect, for every compared estimator; estimators
   without it are unaffected by that setting.
+
+Under the harness (SPEC §9) each run executes in a process of its own, under a
+time limit, and every array handed to ``fit``, ``predict`` and
+``predict_semantic`` is read-only (NumPy ``writeable=False``): an estimator that
+needs to modify one takes a copy (``np.array(x)``). Scoring uses the harness's own
+copy of the scene and test split. Raising, hanging, exiting or crashing records
+the run as failed with its reason; it never stops the sweep.
 """
 
 from __future__ import annotations
@@ -42,8 +49,8 @@ __all__ = ["SplitLike", "SceneLike", "Estimator", "SemanticEstimator", "Segmente
 class SplitLike(Protocol):
     """What ``fit`` may read of a split (train or dictionary): ``synthcal.data.SplitDataset`` or a stand-in.
 
-    Read-only: an estimator must not change the split. The arrays may also be
-    lazy array-likes that support slicing and ``numpy.asarray``.
+    Read-only: the harness hands out arrays with ``writeable=False``. The arrays may
+    also be lazy array-likes that support slicing and ``numpy.asarray``.
     """
 
     @property
@@ -68,7 +75,10 @@ class SplitLike(Protocol):
 
 
 class SceneLike(Protocol):
-    """What ``fit`` may read of the bird's-eye scene: ``synthcal.data.StoreScene`` or a stand-in."""
+    """What ``fit`` may read of the bird's-eye scene: ``synthcal.data.StoreScene`` or a stand-in.
+
+    Read-only, like the splits.
+    """
 
     @property
     def image(self) -> np.ndarray:

@@ -28,12 +28,16 @@ Results layout
 ::
 
     RESULTS/runs/<run-id>/metrics.csv   one row per test image: test_index, pool_index,
-                                        iou, iou_part, iou_whole, failed, failure,
-                                        h00 … h22 (the estimate as returned, NaN if none)
+                                        iou, iou_bg, iou_weighted, iou_part, iou_whole,
+                                        failed, failure, skipped (the truth sees no
+                                        field: metrics NaN), h00 … h22 (the estimate
+                                        as returned, NaN if none)
     RESULTS/runs/<run-id>/run.json      the resolved run (everything that determines
                                         it, the store's path and config hash) and the
-                                        outcome: status ok/failed, error, seconds, the
-                                        estimator's ``history`` (per-epoch losses) if any
+                                        outcome: status ok/failed, error, traceback,
+                                        seconds (the run's process), fit_seconds,
+                                        predict_seconds, the estimator's ``history``
+                                        (per-epoch losses) if any, summary
     RESULTS/cache/<stage>/<key>.pt      shared trained stages (:mod:`.training`)
 
 ``run-id`` is ``<dataset>_<model>[_<training>_<loss>_<matching>_<segmentation>]_s<seed>_<hash>``,
@@ -42,14 +46,31 @@ same run). Both files are written atomically, ``run.json`` last: a run is finish
 when ``run.json`` exists, and a rerun skips it. CSV, not Parquet: pandas needs
 the optional pyarrow for Parquet, and the files are small.
 
-Failures
---------
-An exception inside the estimator's construction, ``fit`` or ``predict`` records
-the run with every test image failed (IoU 0, completeness 0) and the reason
-(``fit: ValueError: …``); the sweep goes on. ``KeyboardInterrupt`` and
-``SystemExit`` are not caught: the sweep stops, finished runs stay, and the next
-invocation resumes with the others. Errors in the data (a missing store or
-split) stop the sweep before anything runs.
+Isolation and failures
+----------------------
+Each run executes in a process of its own (``python -c … _run_child``, its own
+session), which loads the scene and splits, makes every array read-only
+(``writeable=False``, views that cannot be made writeable again), constructs the
+estimator, fits and predicts, and hands back the estimates as plain JSON data.
+Scoring happens here, on the scene and test split this process read itself: an
+estimator can change neither its data nor its score.
+
+Whatever the estimator does to its process is a result, not a crash: an
+exception in construction, ``fit``, ``predict`` or in reading what ``predict``
+returned, a time limit exceeded (``timeout`` seconds, counted from the end of the
+process's start-up), an exit, a crash or a kill (e.g. out of memory) records the
+run with every test image failed (IoU 0, completeness 0) and the reason, prefixed
+by the stage (``load``, ``fit``, ``predict``): ``fit: ValueError: …``,
+``predict: timed out after 5 s``, ``predict: killed by signal 11 (SIGSEGV)``,
+``fit: exited with status 1``. A run whose estimates are all invalid is failed
+too, with the commonest reason (``all 8 estimates invalid: non-finite entries``).
+The sweep goes on; a failed run is finished (delete
+its folder to run it again). ``KeyboardInterrupt`` in the sweep's process (Ctrl-C)
+kills the running run's process and stops the sweep: finished runs stay, and the
+next invocation resumes with the others. Errors in the data (a missing store or
+split) stop the sweep: before anything runs where :func:`expand_runs` can see them,
+else at the run that meets them. A damaged ``run.json`` (empty, truncated) is
+skipped with a :class:`DamagedRecordWarning` naming it, and its run is done again.
 
 Dask
 ----
@@ -59,14 +80,22 @@ Dask
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import inspect
 import itertools
 import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
 import time
 import traceback
-from collections.abc import Iterable, Sequence
+import warnings
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -76,13 +105,13 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from synthcal.config import Loss, Matching, Segmentation, Training
-from synthcal.data import load_split, read_scene
+from synthcal.data import SplitDataset, StoreScene, load_split, read_scene
 from synthcal.estimators import SemanticEstimator, load_estimator, resolve_estimator
 from synthcal.eval.metrics import METRICS, evaluate, summarize
-from synthcal.store import open_store
+from synthcal.store import StoreError, attributes, open_store
 from synthcal.store.splits import SplitError, drawn_seeds
 from synthcal.utils.atomic import atomic_write
-from synthcal.utils.dispatch import dispatch
+from synthcal.utils.dispatch import die_with_parent, dispatch
 
 __all__ = [
     "AXES",
@@ -91,6 +120,8 @@ __all__ = [
     "estimator_label",
     "expand_runs",
     "execute_run",
+    "DEFAULT_TIMEOUT",
+    "DamagedRecordWarning",
     "run_sweep",
     "collect_results",
     "table_runs",
@@ -219,6 +250,22 @@ def expand_runs(
 # --- one run -----------------------------------------------------------------------------
 
 
+# Per-run time limit of ``synthcal bench --timeout`` (seconds): generous, it only
+# catches an estimator that hangs; the paper-size runs take minutes to an hour.
+DEFAULT_TIMEOUT = 6 * 3600.0
+# A run's process must reach its first stage within this much more than the limit
+# (its start-up, imports of torch and synthcal, is not counted in the limit itself).
+_STARTUP_SECONDS = 300.0
+# How often the parent looks at a run's process: the latency of a time limit.
+_POLL_SECONDS = 0.05
+# Stands for an estimate numpy cannot read as numbers: metrics judges it "not numeric".
+_NOT_NUMERIC = "not numeric"
+
+
+class DamagedRecordWarning(UserWarning):
+    """A ``run.json`` that cannot be read (empty, truncated, not a run record): skipped."""
+
+
 def _write_atomic(path: Path, text: str) -> None:
     with atomic_write(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
@@ -228,8 +275,29 @@ def run_folder(results: str | Path, run: Run) -> Path:
     return Path(results) / "runs" / run.id
 
 
+def read_record(path: Path, consequence: str = "skipped") -> dict[str, Any] | None:
+    """A run record, or None with a :class:`DamagedRecordWarning` naming the file.
+
+    Args:
+        path: ``RESULTS/runs/<run-id>/run.json``.
+        consequence: what happens to a damaged one, for the warning's text.
+    """
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+        if not (isinstance(record, dict) and isinstance(record.get("run"), dict)
+                and isinstance(record.get("summary"), dict) and {"status", "id"} <= record.keys()):
+            raise ValueError("not a run record")
+    except (OSError, UnicodeDecodeError, ValueError) as error:  # JSONDecodeError is a ValueError
+        warnings.warn(f"{path}: damaged run record {consequence} ({type(error).__name__}: {error})",
+                      DamagedRecordWarning, stacklevel=2)
+        return None
+    return record
+
+
 def is_finished(results: str | Path, run: Run) -> bool:
-    return (run_folder(results, run) / "run.json").is_file()
+    """Whether the run has a readable ``run.json`` (a damaged one is run again)."""
+    path = run_folder(results, run) / "run.json"
+    return path.is_file() and read_record(path, "ignored; the run is done again") is not None
 
 
 def _options(run: Run, cls: Any, results: Path, device: str, progress: bool) -> dict[str, Any]:
@@ -241,19 +309,93 @@ def _options(run: Run, cls: Any, results: Path, device: str, progress: bool) -> 
     return {k: v for k, v in offered.items() if k in params and v is not None}
 
 
-def _estimate(run: Run, results: Path, device: str, progress: bool,
-              splits: dict[str, Any]) -> tuple[Any, str, dict[str, Any]]:
-    """Fit and predict; returns ``(estimates or None, failure reason, timings)``."""
-    timings: dict[str, Any] = {}
-    stage = "load"
+# --- inside a run's own process ----------------------------------------------------------
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A read-only view of a read-only array: ``setflags(write=True)`` on it raises too."""
+    base = np.asarray(array)
+    base.flags.writeable = False
+    view = base.view()
+    view.flags.writeable = False
+    return view
+
+
+def _read_only_scene(scene: StoreScene) -> StoreScene:
+    arrays: dict[str, Any] = {f.name: _read_only(getattr(scene, f.name)) for f in dataclasses.fields(scene)
+              if isinstance(getattr(scene, f.name), np.ndarray)}
+    return dataclasses.replace(scene, **arrays)
+
+
+def _read_only_split(split: SplitDataset, scene: StoreScene) -> SplitDataset:
+    for name, value in vars(split).items():
+        if isinstance(value, np.ndarray):
+            setattr(split, name, _read_only(value))
+    split.scene = scene
+    return split
+
+
+def _plain_estimates(estimates: Any, n: int) -> Any:
+    """What ``predict`` returned as JSON-ready data that metrics judges as it would the original.
+
+    A number array becomes nested lists (any shape: a wrong one is judged by
+    metrics); a length-``n`` list or tuple that numpy cannot stack is converted item
+    by item (None stays, an item that is not numbers becomes :data:`_NOT_NUMERIC`);
+    anything else numpy cannot read becomes :data:`_NOT_NUMERIC` (a wrong batch).
+
+    Raises:
+        whatever the conversion raises besides TypeError/ValueError (an ``__array__``
+        that fails): the run fails, as metrics would have crashed on it.
+    """
+    if estimates is None:
+        return None
+    if hasattr(estimates, "detach"):  # a torch tensor, possibly on a GPU
+        estimates = estimates.detach().cpu().numpy()
+    try:
+        return np.array(estimates, dtype=np.float64).tolist()
+    except (TypeError, ValueError):  # ragged or mixed with None: judged item by item
+        pass
+    if isinstance(estimates, (list, tuple)) and len(estimates) == n:
+        items = []
+        for item in estimates:
+            try:
+                items.append(None if item is None else np.array(item, dtype=np.float64).tolist())
+            except (TypeError, ValueError):
+                items.append(_NOT_NUMERIC)
+        return items
+    return _NOT_NUMERIC
+
+
+def _estimate(run: Run, results: Path, device: str, progress: bool, stage: Callable[[str], None]) -> dict[str, Any]:
+    """Load the run's data read-only, fit and predict; the outcome as JSON-ready data.
+
+    Returns:
+        dict with ``estimates`` (:func:`_plain_estimates`, None on failure), ``error``
+        (``""`` or ``"<stage>: <exception>"``), ``data_error`` (a store or split that
+        cannot be read: the sweep stops), ``fit_seconds``, ``predict_seconds``,
+        ``history``, ``traceback`` where they apply.
+    """
+    outcome: dict[str, Any] = {"estimates": None, "error": ""}
+    name = "load"
+    stage(name)
+    try:
+        scene = _read_only_scene(read_scene(run.store))
+        splits = {split: _read_only_split(load_split(run.store, split, run.seed,
+                                                     run.mixed if split == "dictionary" else False, scene), scene)
+                  for split in ("train", "test", "dictionary")}
+    except StoreError as error:  # the data, not the estimator: stops the sweep (module docstring)
+        outcome["data_error"] = str(error)
+        return outcome
     try:
         cls = resolve_estimator(run.estimator)
         estimator = load_estimator(run.estimator, **_options(run, cls, results, device, progress))
-        stage, started = "fit", time.perf_counter()
+        name, started = "fit", time.perf_counter()
+        stage(name)
         train = splits["train"]
-        estimator.fit(train, splits["dictionary"], train.scene)
-        timings["fit_seconds"] = time.perf_counter() - started
-        stage, started = "predict", time.perf_counter()
+        estimator.fit(train, splits["dictionary"], scene)
+        outcome["fit_seconds"] = time.perf_counter() - started
+        name, started = "predict", time.perf_counter()
+        stage(name)
         test = splits["test"]
         if run.segmentation == "ground-truth":
             if not isinstance(estimator, SemanticEstimator):  # expand_runs gives the axis only to those
@@ -261,21 +403,173 @@ def _estimate(run: Run, results: Path, device: str, progress: bool,
             estimates = estimator.predict_semantic(test.semantics)
         else:
             estimates = estimator.predict(test.images)
-        timings["predict_seconds"] = time.perf_counter() - started
+        outcome["predict_seconds"] = time.perf_counter() - started
+        name = "predict: result not readable"
+        outcome["estimates"] = _plain_estimates(estimates, len(test.indices))
         history = getattr(estimator, "history", None)
         if isinstance(history, dict):  # per-epoch losses of the bundled models
-            timings["history"] = history
-        return estimates, "", timings
+            outcome["history"] = json.loads(json.dumps(history, default=float))
     except Exception as error:  # an estimator's failure is a result, not a crash (module docstring)
         detail = "".join(traceback.format_exception_only(type(error), error)).strip()
-        timings["traceback"] = traceback.format_exc()
-        return None, f"{stage}: {detail}", timings
+        outcome.update(estimates=None, error=f"{name}: {detail}", traceback=traceback.format_exc())
+    return outcome
+
+
+def _run_child(exchange: str) -> None:
+    """Entry point of a run's own process: ``request.json`` in, ``stage``, ``result.json`` out."""
+    import faulthandler
+
+    folder = Path(exchange)
+    request = json.loads((folder / "request.json").read_text(encoding="utf-8"))
+    die_with_parent(request["parent"])  # a kill -9 of the sweep leaves no run behind
+    faulthandler.enable(all_threads=False)  # a crash prints the plug-in's Python stack to stderr
+    # The read-only arrays reach torch.from_numpy in SplitDataset.__getitem__, which
+    # warns that writing through the tensor is undefined; nothing here writes.
+    warnings.filterwarnings("ignore", message="The given NumPy array is not writable")
+    sys.path[:0] = [entry for entry in request["sys_path"] if entry not in sys.path]  # the parent's plug-ins
+
+    def stage(name: str) -> None:
+        (folder / "stage").write_text(name, encoding="utf-8")
+
+    run = Run(**request["run"])
+    outcome = _estimate(run, Path(request["results"]), request["device"], request["progress"], stage)
+    _write_atomic(folder / "result.json", json.dumps(outcome))
+    # Skip the interpreter's teardown: threads or atexit hooks a plug-in left behind
+    # must not hang or crash a run whose result is already written.
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
+
+
+# --- in the sweep's process --------------------------------------------------------------
+
+
+def _kill(process: subprocess.Popen[bytes]) -> None:
+    """SIGKILL the run's process and everything it started (its own session)."""
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    process.wait()
+
+
+def _wait(process: subprocess.Popen[bytes], stage: Path, timeout: float | None) -> int | None:
+    """The exit status, or None when the run's process exceeded its time limit (then killed).
+
+    The limit counts from the first stage the process reports, so that its start-up
+    (a second or two of imports) is not charged to the estimator.
+    """
+    launched = time.monotonic()
+    deadline = None
+    while True:
+        try:
+            return process.wait(timeout=_POLL_SECONDS)
+        except subprocess.TimeoutExpired:
+            pass
+        if not timeout:
+            continue
+        now = time.monotonic()
+        if deadline is None and stage.exists():
+            deadline = now + timeout
+        if now > (deadline if deadline is not None else launched + _STARTUP_SECONDS + timeout):
+            _kill(process)
+            return None
+
+
+def _estimate_isolated(run: Run, results: Path, device: str, progress: bool,
+                       timeout: float | None) -> dict[str, Any]:
+    """:func:`_estimate` in a process of its own, under the time limit (module docstring)."""
+    exchange = Path(tempfile.mkdtemp(prefix="synthcal-run-"))
+    try:
+        request = {"run": asdict(run), "results": str(results), "device": device, "progress": progress,
+                   "sys_path": sys.path, "parent": os.getpid()}
+        (exchange / "request.json").write_text(json.dumps(request), encoding="utf-8")
+        command = [sys.executable, "-c",
+                   "import sys; from synthcal.eval.harness import _run_child; _run_child(sys.argv[1])",
+                   str(exchange)]
+        started = time.monotonic()
+        # Its own session: a kill reaches the processes it starts (data loaders), and a
+        # Ctrl-C at the terminal reaches only the sweep, which then kills it (finally).
+        process = subprocess.Popen(command, stdin=subprocess.DEVNULL, start_new_session=True)
+        try:
+            status = _wait(process, exchange / "stage", timeout)
+        finally:
+            if process.poll() is None:
+                _kill(process)
+        seconds = time.monotonic() - started
+        stage = (exchange / "stage").read_text(encoding="utf-8") if (exchange / "stage").exists() else "start"
+        try:
+            outcome: dict[str, Any] = json.loads((exchange / "result.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):  # no result: the process ended before reporting one
+            if status is None:
+                why = f"timed out after {timeout:g} s"
+            elif status < 0:
+                why = f"killed by signal {-status} ({signal.Signals(-status).name})"
+            else:
+                why = f"exited with status {status}" + (" before reporting its estimates" if status == 0 else "")
+            outcome = {"estimates": None, "error": f"{stage}: {why}"}
+        outcome["seconds"] = seconds
+        return outcome
+    finally:
+        shutil.rmtree(exchange, ignore_errors=True)
+
+
+def execute_run(run: Run, results: str | Path, device: str = "auto", progress: bool = False,
+                timeout: float | None = DEFAULT_TIMEOUT) -> Path:
+    """Evaluate one run unless it is finished; returns its folder (module docstring).
+
+    Args:
+        run: from :func:`expand_runs`.
+        results: the results folder.
+        device: torch device name for estimators that take one.
+        progress: the estimator's own progress bars.
+        timeout: seconds the run's process may take (start-up not counted); None or 0: no limit.
+
+    Raises:
+        StoreError: the run's store or splits cannot be read.
+        OSError: the results cannot be written (names the file).
+    """
+    results = Path(results)
+    folder = run_folder(results, run)
+    if is_finished(results, run):
+        return folder
+    # Scoring reads its own copy of the scene and the test split, loaded here: the
+    # estimator, in its own process, cannot reach it.
+    scene = read_scene(run.store)
+    test = load_split(run.store, "test", run.seed, False, scene)
+    outcome = _estimate_isolated(run, results, device, progress, timeout)
+    if "data_error" in outcome:
+        raise StoreError(outcome["data_error"])
+    estimates, failure = outcome.pop("estimates"), outcome.pop("error")
+    image_size = (test.images.shape[2], test.images.shape[1])
+    frame = evaluate(scene.semantic, estimates, test.homographies, image_size, field=_scene_field(run.store),
+                     indices=np.asarray(test.indices), source=str(run.store))
+    scored = frame[~frame["skipped"]]
+    if failure:
+        frame["failure"] = failure
+    elif len(scored) and scored["failed"].all():  # nothing usable came back: a failed run, with the commonest why
+        failure = f"all {len(scored)} estimates invalid: {scored['failure'].value_counts().index[0]}"
+    frame.insert(0, "pool_index", np.asarray(test.indices))
+    frame.insert(0, "test_index", np.arange(len(frame)))
+    frame[_H_COLUMNS] = _estimate_columns(estimates, len(frame))
+    folder.mkdir(parents=True, exist_ok=True)
+    _write_atomic(folder / "metrics.csv", frame.to_csv(index=False))
+    record = {"run": asdict(run), "id": run.id, "status": "failed" if failure else "ok", "error": failure,
+              "device": device, **outcome, "summary": summarize(frame)}
+    _write_atomic(folder / "run.json", json.dumps(record, indent=2, default=str))
+    return folder
+
+
+def _scene_field(store: str | Path) -> np.ndarray | None:
+    """The scene's field polygon from the store's attributes (None, the whole scene, for stores without one)."""
+    field = attributes(open_store(store))["scene"].get("field")
+    return None if field is None else np.asarray(field, np.float64)
 
 
 def _estimate_columns(estimates: Any, n: int) -> np.ndarray:
     """(n, 9) the estimates as returned, NaN where they are not a (n, 3, 3) number array."""
     try:
-        array = np.asarray(estimates.detach().cpu() if hasattr(estimates, "detach") else estimates, np.float64)
+        array = np.asarray(estimates, np.float64)
         if array.shape == (n, 3, 3):
             return array.reshape(n, 9)
     except (TypeError, ValueError):
@@ -283,37 +577,11 @@ def _estimate_columns(estimates: Any, n: int) -> np.ndarray:
     return np.full((n, 9), np.nan)
 
 
-def execute_run(run: Run, results: str | Path, device: str = "auto", progress: bool = False) -> Path:
-    """Evaluate one run unless it is finished; returns its folder (module docstring)."""
-    results = Path(results)
-    folder = run_folder(results, run)
-    if is_finished(results, run):
-        return folder
-    scene = read_scene(run.store)
-    splits = {name: load_split(run.store, name, run.seed, run.mixed if name == "dictionary" else False, scene)
-              for name in ("train", "test", "dictionary")}
-    test = splits["test"]
-    estimates, failure, timings = _estimate(run, results, device, progress, splits)
-    image_size = (test.images.shape[2], test.images.shape[1])
-    frame = evaluate(scene.semantic, estimates, test.homographies, image_size)
-    if failure:
-        frame["failure"] = failure
-    frame.insert(0, "pool_index", np.asarray(test.indices))
-    frame.insert(0, "test_index", np.arange(len(frame)))
-    frame[_H_COLUMNS] = _estimate_columns(estimates, len(frame))
-    folder.mkdir(parents=True, exist_ok=True)
-    _write_atomic(folder / "metrics.csv", frame.to_csv(index=False))
-    record = {"run": asdict(run), "id": run.id, "status": "failed" if failure else "ok", "error": failure,
-              "device": device, **timings, "summary": summarize(frame)}
-    _write_atomic(folder / "run.json", json.dumps(record, indent=2, default=str))
-    return folder
-
-
 # --- sweeps ------------------------------------------------------------------------------
 
 
 def run_sweep(runs: Sequence[Run], results: str | Path, device: str = "auto", scheduler: str | None = None,
-              progress: bool = True) -> pd.DataFrame:
+              progress: bool = True, timeout: float | None = DEFAULT_TIMEOUT) -> pd.DataFrame:
     """Execute every unfinished run (locally, or on a Dask cluster); return all results.
 
     Args:
@@ -322,16 +590,19 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str = "auto", sc
         device: torch device name for estimators that take one.
         scheduler: a Dask scheduler address, or None to run here, one after another.
         progress: progress bars (runs; epochs inside the bundled models).
+        timeout: seconds each run's process may take; None or 0: no limit.
 
     Returns:
         :func:`collect_results` of the folder.
     """
     results = Path(results)
+    # Now, not after the first run: a results folder that cannot be written stops the sweep at once.
+    (results / "runs").mkdir(parents=True, exist_ok=True)
     todo = [run for run in runs if not is_finished(results, run)]
     bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="runs", unit="run", disable=not progress)
     # Here: one run after another, with the estimators' own progress bars; on a cluster: none.
     execute = functools.partial(execute_run, results=str(results), device=device,
-                                progress=progress and scheduler is None)
+                                progress=progress and scheduler is None, timeout=timeout)
     for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
         bar.set_postfix_str(folder.name)
         bar.update()
@@ -348,9 +619,12 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
 
     Returns:
         DataFrame with ``dataset``, ``model``, ``training``, ``loss``,
-        ``matching_score``, ``segmentation``, ``profile``, ``seed``, ``iou``,
-        ``iou_part``, ``iou_whole`` (means over test images, failures as 0),
-        ``completeness``, ``n_images``, ``status``, ``run_id``.
+        ``matching_score``, ``segmentation``, ``profile``, ``seed``, the
+        metrics ``iou``, ``iou_bg``, ``iou_weighted``, ``iou_part``, ``iou_whole``
+        (means over scored test images, failures as 0; NaN for a metric the run's
+        record predates), ``completeness``, ``n_images``, ``n_skipped``, ``status``, ``error`` (``""`` for a run
+        that is ok), ``run_id``. A damaged ``run.json`` is skipped with a
+        :class:`DamagedRecordWarning` naming it.
     """
     folder = Path(results) / "runs"
     wanted = None if runs is None else {run.id for run in runs}
@@ -358,16 +632,25 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
     for path in sorted(folder.glob("*/run.json")) if folder.is_dir() else []:
         if wanted is not None and path.parent.name not in wanted:
             continue
-        record = json.loads(path.read_text())
+        record = read_record(path)
+        if record is None:
+            continue
         run = record["run"]
-        row = {"dataset": run["dataset"], "model": run["model"], "training": run["training"], "loss": run["loss"],
-               "matching_score": run["matching"], "segmentation": run["segmentation"], "profile": run["profile"],
-               "seed": run["seed"], "estimator": run["estimator"]}
-        row.update({k: record["summary"][k] for k in (*METRICS, "completeness", "n_images")})
-        row.update(status=record["status"], run_id=record["id"])
+        try:
+            row = {"dataset": run["dataset"], "model": run["model"], "training": run["training"], "loss": run["loss"],
+                   "matching_score": run["matching"], "segmentation": run["segmentation"],
+                   "profile": run["profile"], "seed": run["seed"], "estimator": run["estimator"]}
+            summary = record["summary"]
+            row.update({k: summary[k] for k in ("iou", "completeness", "n_images")})
+            # Runs recorded before a metric existed show it as missing (NaN), not as 0.
+            row.update({k: summary.get(k, np.nan) for k in (*METRICS, "n_skipped")})
+        except KeyError as error:
+            warnings.warn(f"{path}: damaged run record skipped (no {error})", DamagedRecordWarning, stacklevel=2)
+            continue
+        row.update(status=record["status"], error=record.get("error") or "", run_id=record["id"])
         rows.append(row)
     columns = ["dataset", "model", "training", "loss", "matching_score", "segmentation", "profile", "seed",
-               "estimator", *METRICS, "completeness", "n_images", "status", "run_id"]
+               "estimator", *METRICS, "completeness", "n_images", "n_skipped", "status", "error", "run_id"]
     return pd.DataFrame(rows, columns=columns)
 
 

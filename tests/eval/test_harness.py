@@ -1,6 +1,7 @@
 """The bench harness end to end on smoke stores: oracle, failures, resume, Dask, CLI."""
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -8,7 +9,14 @@ import pandas as pd
 import pytest
 
 from synthcal.cli import main
-from synthcal.eval.harness import collect_results, execute_run, expand_runs, run_sweep, table_runs
+from synthcal.eval.harness import (
+    DamagedRecordWarning,
+    collect_results,
+    execute_run,
+    expand_runs,
+    run_sweep,
+    table_runs,
+)
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.store.splits import SplitError
@@ -47,39 +55,52 @@ def test_oracle_scores_one_through_bench(data, tmp_path, capsys):
     for run_id in oracle["run_id"]:
         per_image = pd.read_csv(tmp_path / "runs" / run_id / "metrics.csv")
         assert len(per_image) == 8 and (per_image["iou"] == 1.0).all() and not per_image["failed"].any()
+        # Every metric of SPEC §8 is stored per image, the three readings of the paper's IoU included.
+        assert (per_image[["iou_bg", "iou_weighted", "iou_part", "iou_whole"]] == 1.0).all().all()
     assert "| intersection-1 | 100.00 ± 0.00 |" in capsys.readouterr().out.replace("**", "")
 
 
-def test_failing_estimators_score_zero_and_the_sweep_goes_on(data, tmp_path):
+def test_failing_estimators_score_zero_and_the_sweep_goes_on(data, tmp_path, capsys):
     estimators = (f"{FAULTY}:RaisingEstimator", f"{FAULTY}:NaNEstimator", "identity")
-    assert bench(data, tmp_path, *estimators) == 0
+    assert bench(data, tmp_path, *estimators, seeds="0") == 0
+    summary = capsys.readouterr().out
     frame = collect_results(tmp_path).set_index("model")
     for model, reason in (("RaisingEstimator", "predict: ValueError: this estimator always fails"),
                           ("NaNEstimator", "non-finite entries")):
         rows = frame.loc[[model]]
-        assert (rows["iou"] == 0).all() and (rows["completeness"] == 0).all() and len(rows) == 2
+        assert (rows["iou"] == 0).all() and (rows["completeness"] == 0).all() and len(rows) == 1
         per_image = pd.read_csv(tmp_path / "runs" / rows["run_id"].iloc[0] / "metrics.csv")
         assert per_image["failed"].all() and (per_image["failure"] == reason).all()
-    assert (frame.loc[["RaisingEstimator"], "status"] == "failed").all()
+    assert (frame.loc[["RaisingEstimator", "NaNEstimator"], "status"] == "failed").all()
+    # Every estimate invalid: a failed run with its reason, in bench's summary and in `table`.
+    nan_run = frame.loc["NaNEstimator", "run_id"]
+    assert frame.loc["NaNEstimator", "error"] == "all 8 estimates invalid: non-finite entries"
+    assert f"failed: {nan_run}: all 8 estimates invalid: non-finite entries" in summary
+    assert main(["table", str(tmp_path), "--metric", "iou_weighted"]) == 0
+    out = capsys.readouterr().out
+    assert f"failed: {nan_run}: all 8 estimates invalid" in out and "iou_weighted (%)" in out
+    assert main(["table", str(tmp_path), "--metric", "nope"]) == 2
     identity = frame.loc[["identity"]]
     assert (identity["completeness"] == 1).all() and (identity["iou"] > 0).all()
 
 
 def test_killed_sweep_resumes_to_the_same_table(data, tmp_path, monkeypatch):
     estimators = ["identity", f"{FAULTY}:InterruptingEstimator", "template"]
-    runs = expand_runs(data, ["intersection-1"], estimators, [0, 1])
-    assert [r.model for r in runs] == ["identity"] * 2 + ["InterruptingEstimator"] * 2 + ["template"] * 2
+    runs = expand_runs(data, ["intersection-1"], estimators, [0])
+    assert [r.model for r in runs] == ["identity", "InterruptingEstimator", "template"]
     reference = run_sweep(runs, tmp_path / "uninterrupted", device="cpu", progress=False)
 
     marker = tmp_path / "interrupt-now"
     marker.touch()
     monkeypatch.setenv("SYNTHCAL_TEST_INTERRUPT", str(marker))
     results = tmp_path / "interrupted"
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt):  # the plug-in sends SIGINT to the sweep, as Ctrl-C would
         run_sweep(runs, results, device="cpu", progress=False)
     finished = {p.parent.name: p.stat().st_mtime_ns for p in (results / "runs").glob("*/run.json")}
-    assert len(finished) == 2  # the two identity runs, before the interruption
-    assert not any((results / "runs" / runs[2].id).glob("*.csv"))
+    assert list(finished) == [runs[0].id]  # the identity run, before the interruption
+    assert not (results / "runs" / runs[1].id).exists()
+    with pytest.raises(ProcessLookupError):  # the interrupted run's process was killed with the sweep
+        os.kill(int(marker.with_suffix(".pid").read_text()), 0)
 
     resumed = run_sweep(runs, results, device="cpu", progress=False)
     assert {name: (results / "runs" / name / "run.json").stat().st_mtime_ns for name in finished} == finished
@@ -126,7 +147,7 @@ def test_mixed_dictionary_runs_under_its_paper_label(data, tmp_path):
 def test_dask_scheduler_gives_the_same_results(data, tmp_path):
     from dask.distributed import LocalCluster
 
-    runs = expand_runs(data, ["intersection-1"], ["identity", ORACLE], [0, 1])
+    runs = expand_runs(data, ["intersection-1"], ["identity", ORACLE], [0])
     local = run_sweep(runs, tmp_path / "local", device="cpu", progress=False)
     with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
         remote = run_sweep(runs, tmp_path / "dask", device="cpu", scheduler=cluster.scheduler_address, progress=False)
@@ -157,3 +178,66 @@ def test_reference_estimators_sit_in_every_row():
     identity = out[out["model"] == "identity"]
     assert sorted(identity["loss"]) == ["mse", "top-mse"] and (identity["training"] == "e2e").all()
     assert np.allclose(identity["iou"], 0.1) and len(out) == 4
+
+
+def test_runs_are_isolated_and_their_failures_recorded(data, tmp_path, capsys):
+    """Each misbehaving plug-in is one failed run with its reason; the mutating one scores as the
+    identity it is; the identity after them all completes; ``table`` lists the failures."""
+    faulty = ("SleepingEstimator", "ExitingEstimator", "SegfaultingEstimator", "UnreadableEstimator",
+              "MutatingEstimator")
+    assert bench(data, tmp_path, *(f"{FAULTY}:{name}" for name in faulty), "identity", seeds="0",
+                 extra=("--timeout", "2")) == 0
+    frame = collect_results(tmp_path).set_index("model")
+    assert sorted(frame.index) == sorted([*faulty, "identity"])
+    reasons = {"SleepingEstimator": "predict: timed out after 2 s",
+               "ExitingEstimator": "fit: exited with status 1",
+               "SegfaultingEstimator": "predict: killed by signal 11 (SIGSEGV)",
+               "UnreadableEstimator": "predict: result not readable: RuntimeError: no numbers here"}
+    for model, reason in reasons.items():
+        row = frame.loc[model]
+        assert (row["status"], row["error"], row["iou"], row["completeness"]) == ("failed", reason, 0, 0), model
+        per_image = pd.read_csv(tmp_path / "runs" / row["run_id"] / "metrics.csv")
+        assert per_image["failed"].all() and (per_image["failure"] == reason).all()
+    identity, mutating = frame.loc["identity"], frame.loc["MutatingEstimator"]
+    assert identity["status"] == "ok" and identity["completeness"] == 1 and 0 < identity["iou"] < 1
+    # Zeroing the scene's classes where scoring could see them would have made every view score 1.
+    assert mutating["status"] == "ok", mutating["error"]
+    columns = ["iou", "iou_part", "iou_whole"]
+    mutated = pd.read_csv(tmp_path / "runs" / mutating["run_id"] / "metrics.csv")[columns]
+    reference = pd.read_csv(tmp_path / "runs" / identity["run_id"] / "metrics.csv")[columns]
+    pd.testing.assert_frame_equal(mutated, reference)
+
+    capsys.readouterr()
+    assert main(["table", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for model, reason in reasons.items():
+        assert f"{frame.loc[model, 'run_id']}: {reason}" in out
+
+
+def test_damaged_run_record_is_skipped_with_a_warning_and_run_again(data, tmp_path, capsys):
+    assert bench(data, tmp_path, "identity", ORACLE, seeds="0") == 0
+    damaged = next((tmp_path / "runs").glob("*OracleEstimator*/run.json"))
+    damaged.write_text("")
+    capsys.readouterr()
+    with pytest.warns(DamagedRecordWarning, match=f"{damaged}: damaged run record skipped"):
+        assert main(["table", str(tmp_path)]) == 0
+    assert "OracleEstimator" not in capsys.readouterr().out
+    with pytest.warns(DamagedRecordWarning, match=f"{damaged}: damaged run record ignored; the run is done again"):
+        assert bench(data, tmp_path, "identity", ORACLE, seeds="0") == 0
+    assert json.loads(damaged.read_text())["status"] == "ok"
+    assert "| intersection-1 | 100.00 |" in capsys.readouterr().out.replace("**", "")
+
+
+def test_bench_and_table_errors_name_the_path(data, tmp_path, capsys):
+    results = tmp_path / "a-file"
+    results.write_text("not a folder")
+    assert bench(data, results, "identity", seeds="0") == 2
+    assert main(["table", str(tmp_path / "nowhere")]) == 2
+    assert main(["table", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith(f"synthcal: error: {results / 'runs'}: ") and "Not a directory" in err[0]
+    assert err[1:] == [f"synthcal: error: {tmp_path / 'nowhere'}: no such results folder",
+                       f"synthcal: error: {tmp_path}: no finished runs"]
+    with pytest.raises(SystemExit) as exit_status:
+        bench(data, tmp_path, "identity", extra=("--timeout", "-1"))
+    assert exit_status.value.code == 2 and "'-1' is not a number of seconds >= 0" in capsys.readouterr().err

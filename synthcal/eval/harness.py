@@ -476,10 +476,20 @@ def _wait(process: subprocess.Popen[bytes], stage: Path, timeout: float | None) 
             return None
 
 
+def _signal_name(number: int) -> str:
+    """``SIGSEGV`` for 11; real-time signals have no name of their own."""
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return "unnamed"
+
+
 def _estimate_isolated(run: Run, results: Path, device: str, progress: bool,
                        timeout: float | None) -> dict[str, Any]:
     """:func:`_estimate` in a process of its own, under the time limit (module docstring)."""
-    exchange = Path(tempfile.mkdtemp(prefix="synthcal-run-"))
+    # Beside the results, not in /tmp: a temp-folder cleaner cannot pull it from under a
+    # running child, and a folder left by a kill -9 stays where the user looks.
+    exchange = Path(tempfile.mkdtemp(prefix=".exchange-", dir=results))
     try:
         request = {"run": asdict(run), "results": str(results), "device": device, "progress": progress,
                    "sys_path": sys.path, "parent": os.getpid()}
@@ -504,7 +514,7 @@ def _estimate_isolated(run: Run, results: Path, device: str, progress: bool,
             if status is None:
                 why = f"timed out after {timeout:g} s"
             elif status < 0:
-                why = f"killed by signal {-status} ({signal.Signals(-status).name})"
+                why = f"killed by signal {-status} ({_signal_name(-status)})"
             else:
                 why = f"exited with status {status}" + (" before reporting its estimates" if status == 0 else "")
             outcome = {"estimates": None, "error": f"{stage}: {why}"}

@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from timing import best_of  # benchmarks/timing.py (scripts run from benchmarks/)
 
 from synthcal.config import SplitSizes, load_config
 from synthcal.data import load_split
@@ -34,14 +35,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SPLIT = 4500
 
 
-def best_of(repeat: int, fn) -> float:
-    """Smallest wall time of ``repeat`` calls (the machine is shared and noisy)."""
-    times = []
-    for _ in range(repeat):
-        started = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - started)
-    return min(times)
 
 
 def prepare(scratch: Path, workers: int) -> Path:

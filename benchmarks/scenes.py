@@ -13,24 +13,13 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
-from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 
 import numpy as np
+from timing import best_of  # benchmarks/timing.py (scripts run from benchmarks/)
 
 from synthcal.generate.scenes import BUILTIN_SCENES, build_scene
-
-
-def best_of(fn: Callable[[], object], repeat: int) -> float:
-    """The fastest of ``repeat`` calls, in seconds."""
-    times = []
-    for _ in range(repeat):
-        started = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - started)
-    return min(times)
 
 
 def load_arrays(*paths: Path) -> list[np.ndarray]:
@@ -45,12 +34,12 @@ def main() -> None:
     print(f"{'scene':<16} {'size':>11} {'build':>9} {'np.load':>9} {'ratio':>7}")
     with tempfile.TemporaryDirectory(prefix="synthcal-scenes-") as scratch:
         for name in BUILTIN_SCENES:
-            build = best_of(partial(build_scene.__wrapped__, name), args.repeat)  # bypassing the cache
+            build = best_of(args.repeat, partial(build_scene.__wrapped__, name))  # bypassing the cache
             scene = build_scene(name)
             image, semantic = Path(scratch) / f"{name}-image.npy", Path(scratch) / f"{name}-semantic.npy"
             np.save(image, scene.image)
             np.save(semantic, scene.semantic)
-            load = best_of(partial(load_arrays, image, semantic), args.repeat)
+            load = best_of(args.repeat, partial(load_arrays, image, semantic))
             h, w = scene.semantic.shape
             print(f"{name:<16} {w:>5} × {h:<5} {build * 1e3:>6.0f} ms {load * 1e3:>6.1f} ms {build / load:>6.0f}×")
 

@@ -22,12 +22,11 @@ from __future__ import annotations
 import argparse
 import shutil
 import tempfile
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import zarr
+from timing import best_of  # benchmarks/timing.py (scripts run from benchmarks/)
 from zarr.codecs import BloscCodec
 
 from synthcal.config import load_config
@@ -39,14 +38,6 @@ ROOT = Path(__file__).resolve().parents[1]
 ARRAYS = ("image", "semantic")
 
 
-def best_of(repeat: int, fn: Callable[[], object]) -> float:
-    """Smallest wall time of ``repeat`` calls (the machine is shared and noisy)."""
-    times = []
-    for _ in range(repeat):
-        started = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - started)
-    return min(times)
 
 
 def empty_arrays(path: Path, data: dict[str, np.ndarray], shard_size: int) -> dict[str, zarr.Array]:

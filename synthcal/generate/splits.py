@@ -1,16 +1,6 @@
 """Per-seed train / test / dictionary splits inside a store (SPEC §6).
 
-Layout (inside the dataset's store)::
-
-    splits/                                   group, attrs {"layout": "synthcal-splits/1"}
-    splits/seed-<s>/                          group, attrs = the recipe (below)
-    splits/seed-<s>/train                     (n_train,) int64   pool indices, ascending
-    splits/seed-<s>/test                      (n_test,)  int64
-    splits/seed-<s>/dictionary                (n_dict,)  int64   absent without an own dictionary
-    splits/seed-<s>/mixed_dictionary/         group, attrs {"sources", "stores", "source_config_hash",
-                                              "homography_frame"}; present when the dataset has sources
-    splits/seed-<s>/mixed_dictionary/source   (K,) int64   position in the ``sources`` attribute list
-    splits/seed-<s>/mixed_dictionary/index    (K,) int64   pool index in that source's store
+Layout inside the store: :mod:`synthcal.store.splits` (which reads it).
 
 The three own sets of a seed are disjoint, drawn uniformly without replacement from
 the pool with ``SeedSequence(pool_seed, spawn_key=(2, s))`` — a stream independent

@@ -114,10 +114,8 @@ def main() -> None:
         rss_large = peak_rss_mib([*cli, "--n", str(large), "--out", str(work / "m2")])
         plan = (
             "from synthcal.config import load_config; from synthcal.generate.pipeline import *; "
-            "from synthcal.generate.grid import sample_cameras; "
             f"s = load_config({str(ROOT / 'datasets.yaml')!r}).resolve({args.dataset!r}, pool_size=200000); "
-            "sc = load_scene(s); c = sample_cameras(s.grid, s.pool_size, s.seed, sc.camera_position); "
-            "plan_homographies(s, sc, c)"
+            "plan_cameras(s, load_scene(s))"
         )
         rss_plan = peak_rss_mib([sys.executable, "-c", plan])
     finally:

@@ -24,13 +24,23 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+import zlib
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal, get_args
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 __all__ = [
     "Model",
@@ -38,12 +48,16 @@ __all__ = [
     "Loss",
     "Matching",
     "Segmentation",
+    "StnTemplate",
+    "ClassReduction",
     "MODELS",
     "MODEL_LABELS",
     "TRAININGS",
     "LOSSES",
     "MATCHINGS",
     "SEGMENTATIONS",
+    "STN_TEMPLATES",
+    "CLASS_REDUCTIONS",
     "ConfigError",
     "check_dataset_name",
     "GRID_AXES",
@@ -53,6 +67,7 @@ __all__ = [
     "GridConfig",
     "AppearanceConfig",
     "SplitSizes",
+    "OsmSourceConfig",
     "UserSceneConfig",
     "DatasetConfig",
     "TrainingSettings",
@@ -76,12 +91,19 @@ Loss = Literal["top-mse", "mse", "top-dice", "dice"]
 Matching = Literal["top-mse", "mse"]
 # A trained UNet, or the true class maps for every compared estimator.
 Segmentation = Literal["unet", "ground-truth"]
+# The template the STN reads in training: the one the Siamese retrieves (as at test time) or the true best.
+StnTemplate = Literal["retrieved", "ground-truth"]
+# How MSE-based losses and matching scores reduce over the class channels (SPEC §7):
+# ``sum``: the squared distance between per-pixel class vectors; ``mean``: that divided by C.
+ClassReduction = Literal["sum", "mean"]
 
 MODELS: tuple[Model, ...] = get_args(Model)
 TRAININGS: tuple[Training, ...] = get_args(Training)
 LOSSES: tuple[Loss, ...] = get_args(Loss)
 MATCHINGS: tuple[Matching, ...] = get_args(Matching)
 SEGMENTATIONS: tuple[Segmentation, ...] = get_args(Segmentation)
+STN_TEMPLATES: tuple[StnTemplate, ...] = get_args(StnTemplate)
+CLASS_REDUCTIONS: tuple[ClassReduction, ...] = get_args(ClassReduction)
 
 # Model option → its label in run records and tables (the paper calls the baseline "sha2020").
 MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020"}
@@ -170,7 +192,16 @@ class AxisRange(_Strict):
 
 
 class GridConfig(_Strict):
-    """Camera grid; X/Y/Z left out means the scene's own camera position."""
+    """Camera grid; X/Y/Z left out means the scene's own camera position.
+
+    With ``xy_relative`` the X and Y ranges are offsets from the scene's camera
+    *anchor* (its ``camera_position``, or the scene centre ``(W/2, H/2)``), so one
+    grid fits scenes of any size; Z is always the height above the ground.
+    :meth:`anchored` turns such a grid into the absolute one it stands for, which
+    is what a store records (a relative grid and its absolute spelling give the
+    same store). ``xy_relative`` is left out of dumps when false, so absolute grids
+    keep their configuration hash.
+    """
 
     pan_deg: AxisRange
     tilt_deg: AxisRange
@@ -179,13 +210,35 @@ class GridConfig(_Strict):
     y: AxisRange | None = None
     z: AxisRange | None = None
     jitter: bool = False
+    xy_relative: bool = False
 
     @model_validator(mode="after")
     def _position_all_or_none(self) -> GridConfig:
         given = [axis for axis in ("x", "y", "z") if getattr(self, axis) is not None]
         if given and len(given) != 3:
             raise ValueError(f"x, y and z must be given together or not at all, got only {given}")
+        if self.xy_relative and not given:
+            raise ValueError("xy_relative: true needs x, y and z ranges (offsets from the scene's anchor)")
         return self
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data: dict[str, Any] = handler(self)
+        if not self.xy_relative:
+            data.pop("xy_relative", None)
+        return data
+
+    def anchored(self, anchor: tuple[float, float]) -> GridConfig:
+        """The absolute grid: X/Y offsets moved to ``anchor`` (``self`` when already absolute).
+
+        Args:
+            anchor: the scene's camera anchor ``(X, Y)`` in bird's-eye pixels.
+        """
+        if not self.xy_relative or self.x is None or self.y is None:
+            return self
+        x = self.x.model_copy(update={"start": self.x.start + anchor[0], "stop": self.x.stop + anchor[0]})
+        y = self.y.model_copy(update={"start": self.y.start + anchor[1], "stop": self.y.stop + anchor[1]})
+        return self.model_copy(update={"x": x, "y": y, "xy_relative": False})
 
     def axis(self, name: str) -> AxisRange | None:
         """The range of one of :data:`GRID_AXES` (None: X/Y/Z left to the scene)."""
@@ -224,16 +277,72 @@ class SplitSizes(_Strict):
         return self.train + self.test + self.dictionary
 
 
-class UserSceneConfig(_Strict):
-    """A scene from two PNG files; paths are relative to the YAML file."""
+class OsmSourceConfig(_Strict):
+    """An OpenStreetMap scene's source (``osm:`` of a scene entry; SPEC §4).
 
-    image: Path
-    semantic: Path
+    ``file`` (``.osm``, ``.osm.pbf``, ``.osm.bz2``) is relative to the YAML file;
+    ``center`` is ``[lat, lon]`` in WGS84 degrees; ``size_m`` the window
+    ``[width, height]`` in metres; ``classes`` moves tag selectors to classes
+    (``{terrain: ["landuse=farmland"]}``, see docs/osm.md); ``seed`` seeds the RGB.
+    """
+
+    file: Path
+    center: tuple[float, float]
+    size_m: tuple[float, float] = (130.0, 190.0)
+    pixels_per_metre: float = Field(10.0, gt=0, allow_inf_nan=False)
+    classes: dict[str, list[str]] | None = None
+    seed: int = 0
+
+    @field_validator("center")
+    @classmethod
+    def _lat_lon(cls, center: tuple[float, float]) -> Any:
+        if not (-90 <= center[0] <= 90 and -180 <= center[1] <= 180):
+            raise ValueError(f"center must be [lat, lon] in degrees (-90..90, -180..180), got {list(center)}")
+        return center
+
+    @field_validator("size_m")
+    @classmethod
+    def _size(cls, size: tuple[float, float]) -> Any:
+        if not all(0 < s < float("inf") for s in size):
+            raise ValueError(f"size_m must be [width, height] in metres, both > 0, got {list(size)}")
+        return size
+
+
+class UserSceneConfig(_Strict):
+    """A scene from two PNG files; paths are relative to the YAML file.
+
+    Or, with ``osm:`` instead of ``image``/``semantic``/``palette``/``classes``/
+    ``pixels_per_metre``, a scene built from OpenStreetMap (:class:`OsmSourceConfig`).
+
+    ``classes`` names class ids 0..3; ``heading_deg`` is added to every pan;
+    ``camera_position`` ``(X, Y, Z)`` (bird's-eye pixels, ``Z`` the height) is the
+    camera of a grid without X/Y/Z and the anchor of a relative grid (default
+    anchor: the scene centre); ``pixels_per_metre`` is the ground scale.
+    """
+
+    image: Path | None = None
+    semantic: Path | None = None
+    osm: OsmSourceConfig | None = None
     palette: dict[int, tuple[int, int, int]] | None = None
     classes: tuple[str, str, str, str] | None = None
-    heading_deg: float = 0.0
+    heading_deg: float = Field(0.0, allow_inf_nan=False)
     camera_position: tuple[float, float, float] | None = None
-    pixels_per_metre: float = Field(10.0, gt=0)
+    pixels_per_metre: float = Field(10.0, gt=0, allow_inf_nan=False)
+
+    @field_validator("classes")
+    @classmethod
+    def _class_names(cls, classes: tuple[str, str, str, str] | None) -> Any:
+        if classes is not None and (any(not name.strip() for name in classes) or len(set(classes)) != 4):
+            raise ValueError(f"classes must be 4 distinct, non-empty names (ids 0..3), got {list(classes)}")
+        return classes
+
+    @field_validator("camera_position")
+    @classmethod
+    def _camera_position(cls, position: tuple[float, float, float] | None) -> Any:
+        if position is not None and (not all(np.isfinite(position)) or not position[2] > 0):
+            raise ValueError(f"camera_position must be [X, Y, Z] in bird's-eye pixels with Z (height) > 0, "
+                             f"got {list(position)}")
+        return position
 
     @field_validator("palette")
     @classmethod
@@ -245,6 +354,25 @@ class UserSceneConfig(_Strict):
                 raise ValueError(f"palette colour must be 0..255, got {colour}")
         return palette
 
+    @model_validator(mode="after")
+    def _one_source(self) -> UserSceneConfig:
+        if self.osm is None:
+            if self.image is None or self.semantic is None:
+                raise ValueError("a scene needs image and semantic (two PNG files) or osm (an OpenStreetMap extract)")
+            return self
+        clash = [key for key in ("image", "semantic", "palette", "classes", "pixels_per_metre")
+                 if key in self.model_fields_set]
+        if clash:
+            raise ValueError(f"an osm scene takes its classes and scale from osm:, not {', '.join(clash)}")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data: dict[str, Any] = handler(self)
+        if self.osm is None:
+            data.pop("osm", None)  # PNG scenes keep their configuration hash
+        return data
+
 
 class DatasetConfig(_Strict):
     """One dataset: a scene and its cameras (other keys override defaults).
@@ -254,6 +382,10 @@ class DatasetConfig(_Strict):
     pool is all of them and whose train/test sets are fixed). ``dictionary_from``
     names the datasets whose pools provide the dictionary instead of this dataset's
     own pool (a mixed dictionary, SPEC §6); a ``poses:`` dataset needs it.
+    ``seed`` (≥ 0) is the dataset's own pool seed, used as is; without it the pool
+    is drawn from ``defaults.seed`` and the name (:attr:`DatasetSpec.pool_entropy`).
+    ``min_field_fraction`` (0 ≤ f < 1) redraws grid cameras whose semantic map has
+    fewer non-background pixels than that share.
     """
 
     scene: str
@@ -261,9 +393,10 @@ class DatasetConfig(_Strict):
     poses: Literal["worldcup2014"] | None = None
     pool_size: int | None = Field(None, ge=1)
     dictionary_from: tuple[str, ...] | None = None
-    seed: int | None = None
+    seed: int | None = Field(None, ge=0)
     image_size: tuple[int, int] | None = None
     splits: SplitSizes | None = None
+    min_field_fraction: float | None = Field(None, ge=0, lt=1)
 
     @field_validator("dictionary_from", mode="before")
     @classmethod
@@ -281,6 +414,8 @@ class DatasetConfig(_Strict):
             raise ValueError(f"pool_size: the poses {self.poses!r} fix the pool; leave pool_size out")
         if self.poses is not None and not self.dictionary_from:
             raise ValueError(f"poses {self.poses!r}: every pose is in train or test, so dictionary_from: is required")
+        if self.poses is not None and self.min_field_fraction:
+            raise ValueError(f"min_field_fraction: the poses {self.poses!r} are given cameras, none can be redrawn")
         return self
 
 
@@ -314,7 +449,12 @@ class TrainingSettings(_Strict):
     schedule, whose warm-up thresholds (SPEC §7: 20 and 40 of the paper's 100)
     scale with it (:func:`synthcal.training.end_to_end_stage`).
     ``scene_downsample`` reduces the bird's-eye map that ``L_warp`` samples, which
-    anti-aliases it (:mod:`synthcal.training`).
+    anti-aliases it (:mod:`synthcal.training`). ``stn_template`` is the template
+    the STN reads in training: ``retrieved`` (the Siamese's nearest, as at test
+    time) or ``ground-truth`` (the template of lowest matching score).
+    ``class_reduction`` is how MSE-based warp losses and matching scores reduce
+    over the class channels (SPEC §7; docs/decisions.md gives the measurement
+    behind the default).
     """
 
     work_size: tuple[int, int] | None = None
@@ -331,6 +471,8 @@ class TrainingSettings(_Strict):
     stn_epochs: int = Field(40, ge=1)
     end_to_end_epochs: int = Field(100, ge=3)
     scene_downsample: int = Field(4, ge=1)
+    stn_template: StnTemplate = "retrieved"
+    class_reduction: ClassReduction = "sum"
 
     @field_validator("work_size")
     @classmethod
@@ -385,6 +527,13 @@ class DatasetSpec(_Strict):
     datasets whose pools give the mixed dictionary (empty: none);
     ``own_dictionary`` is False when the dictionary comes only from them
     (``dictionary_from``).
+
+    ``seed`` is the configured seed: the dataset's own ``seed:`` if it has one
+    (``seed_from_name`` False: the pool is drawn from it as is), else the file's
+    ``defaults.seed``, which :attr:`pool_entropy` combines with the dataset's name
+    so that every dataset draws an independent pool (SPEC §6).
+    ``min_field_fraction`` > 0 redraws cameras whose semantic map has fewer
+    non-background pixels than that fraction (:mod:`synthcal.generate.pipeline`).
     """
 
     name: str
@@ -394,6 +543,8 @@ class DatasetSpec(_Strict):
     poses: str | None = None
     pool_size: int
     seed: int
+    seed_from_name: bool = True
+    min_field_fraction: float = 0.0
     image_size: tuple[int, int]
     focal_reference_width: int
     shard_size: int
@@ -410,6 +561,8 @@ class DatasetSpec(_Strict):
         Split sizes, seeds and dictionary sources are left out: splits are drawn
         later, inside the store, and changing them must not invalidate a generated
         pool. ``poses`` is left out when unset, so grid datasets keep their hash.
+        A store records the hash of the spec whose relative grid is made absolute
+        at the scene's anchor (``synthcal.generate.pipeline.anchored_spec``).
         """
         exclude = {"splits", "split_seeds", "mixed_sources", "own_dictionary"}
         if self.poses is None:
@@ -417,6 +570,26 @@ class DatasetSpec(_Strict):
         pool = self.model_dump(mode="json", exclude=exclude)
         text = json.dumps(pool, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
+
+    @property
+    def pool_entropy(self) -> int | tuple[int, int]:
+        """The ``numpy.random.SeedSequence`` entropy of the pool's random streams.
+
+        ``(seed, zlib.crc32(name.encode()))`` — stable across runs, machines and
+        Python versions (unlike ``hash``) — or, for a dataset with its own
+        ``seed:``, that seed as is. The cameras are drawn with
+        ``SeedSequence(pool_entropy, spawn_key=(0,))`` and sample ``i``'s
+        appearance with ``spawn_key=(1, i)``.
+        """
+        return (self.seed, zlib.crc32(self.name.encode())) if self.seed_from_name else self.seed
+
+    def pool_seed_attributes(self) -> dict[str, Any]:
+        """How the pool's seed was derived, as recorded in the store's ``pool_seed`` attribute."""
+        entropy = self.pool_entropy
+        rule = ("numpy.random.SeedSequence([seed, zlib.crc32(dataset.encode())])" if self.seed_from_name
+                else "numpy.random.SeedSequence(seed): the dataset's own seed, as is")
+        return {"seed": self.seed, "entropy": list(entropy) if isinstance(entropy, tuple) else entropy,
+                "rule": rule, "from_name": self.seed_from_name}
 
 
 def default_config_path() -> Path:
@@ -490,6 +663,8 @@ class LoadedConfig:
             poses=entry.poses,
             pool_size=pool,
             seed=d.seed if entry.seed is None else entry.seed,
+            seed_from_name=entry.seed is None,
+            min_field_fraction=entry.min_field_fraction or 0.0,
             image_size=prof.image_size or entry.image_size or d.image_size,
             focal_reference_width=d.focal_reference_width,
             shard_size=prof.shard_size or d.shard_size,
@@ -610,6 +785,14 @@ def _check_mixed_dictionaries(path: Path, config: Config) -> None:
                 )
 
 
+def _resolve_scene_paths(path: Path, scene: UserSceneConfig) -> UserSceneConfig:
+    """A scene entry with its files made relative to the YAML file's folder."""
+    if scene.osm is not None:
+        return scene.model_copy(update={"osm": scene.osm.model_copy(update={"file": path.parent / scene.osm.file})})
+    assert scene.image is not None and scene.semantic is not None  # _one_source
+    return scene.model_copy(update={"image": path.parent / scene.image, "semantic": path.parent / scene.semantic})
+
+
 def load_config(path: str | Path | None = None) -> LoadedConfig:
     """Read and validate a ``datasets.yaml``.
 
@@ -633,12 +816,7 @@ def load_config(path: str | Path | None = None) -> LoadedConfig:
         config = Config.model_validate(raw)
     except ValidationError as exc:
         raise ConfigError(_format_errors(path, exc, raw)) from None
-    resolved_scenes = {
-        name: scene.model_copy(
-            update={"image": (path.parent / scene.image), "semantic": (path.parent / scene.semantic)}
-        )
-        for name, scene in config.scenes.items()
-    }
+    resolved_scenes = {name: _resolve_scene_paths(path, scene) for name, scene in config.scenes.items()}
     config = config.model_copy(update={"scenes": resolved_scenes})
     _check_references(path, config)
     return LoadedConfig(path, config)

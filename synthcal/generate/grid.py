@@ -19,24 +19,40 @@ Example
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from synthcal.config import GRID_AXES, GridConfig
 
-__all__ = ["grid_axes", "CameraSamples", "sample_cameras"]
+__all__ = ["grid_axes", "CameraSamples", "sample_cameras", "redraw_cameras"]
 
 
-def grid_axes(grid: GridConfig, scene_position: tuple[float, float, float] | None = None) -> list[np.ndarray]:
+def grid_axes(
+    grid: GridConfig,
+    scene_position: tuple[float, float, float] | None = None,
+    anchor: tuple[float, float] | None = None,
+) -> list[np.ndarray]:
     """The six axes' values, X/Y/Z from the scene when the grid leaves them out.
+
+    Args:
+        grid: the grid; with ``xy_relative`` its X/Y are offsets from ``anchor``.
+        scene_position: the scene's ``(X, Y, Z)`` for a grid without X/Y/Z.
+        anchor: the scene's camera anchor (:attr:`synthcal.generate.scenes.Scene.anchor`),
+            needed by a relative grid.
 
     Returns:
         six (K_i,) float64 arrays in :data:`~synthcal.config.GRID_AXES` order.
 
     Raises:
-        ValueError: the grid has no X/Y/Z and the scene no camera position.
+        ValueError: the grid has no X/Y/Z and the scene no camera position, or
+            the grid is relative and no anchor is given.
     """
+    if grid.xy_relative:
+        if anchor is None:
+            raise ValueError("the grid's X/Y are relative to the scene's anchor, but no anchor was given")
+        grid = grid.anchored(anchor)
     axes = []
     for i, name in enumerate(GRID_AXES):
         axis = grid.axis(name)
@@ -72,18 +88,22 @@ class CameraSamples:
 def sample_cameras(
     grid: GridConfig,
     count: int,
-    seed: int,
+    seed: int | tuple[int, ...],
     scene_position: tuple[float, float, float] | None = None,
+    anchor: tuple[float, float] | None = None,
 ) -> CameraSamples:
     """Draw ``count`` distinct grid cameras uniformly, reproducibly from ``seed``.
 
     With ``grid.jitter`` each value moves uniformly within its grid cell
-    (± half a step; axes with a single value stay put).
+    (± half a step; axes with a single value stay put). ``scene_position`` and
+    ``anchor`` are as in :func:`grid_axes`. ``seed`` is an int or a sequence of
+    ints (``numpy.random.SeedSequence`` entropy).
 
     Raises:
         ValueError: ``count`` exceeds the grid size.
     """
-    axes = grid_axes(grid, scene_position)
+    axes = grid_axes(grid, scene_position, anchor)
+    grid = grid.anchored(anchor) if grid.xy_relative and anchor is not None else grid
     shape = tuple(len(a) for a in axes)
     size = int(np.prod(shape))
     if count > size:
@@ -95,6 +115,68 @@ def sample_cameras(
     if grid.jitter:
         values = _jitter(grid, axes, values, rng)
     return CameraSamples(grid_index=grid_index, values=values)
+
+
+def redraw_cameras(
+    grid: GridConfig,
+    samples: CameraSamples,
+    keep: Callable[[np.ndarray], np.ndarray],
+    seed: int | tuple[int, ...],
+    scene_position: tuple[float, float, float] | None = None,
+    anchor: tuple[float, float] | None = None,
+    max_draws: int = 1000,
+) -> tuple[CameraSamples, int]:
+    """Replace the cameras that ``keep`` rejects, deterministically.
+
+    Sample ``i``'s replacements come from its own stream,
+    ``SeedSequence(seed, spawn_key=(4, i))``: grid cameras drawn uniformly one at a
+    time (each jittered from the same stream when the grid jitters), skipping any
+    grid camera the pool holds or held; the first one ``keep`` accepts takes its
+    place. Rejected samples are redrawn in index order, so the result depends on
+    the seed, the grid and ``keep`` alone (never on how the pool is rendered later).
+
+    Args:
+        grid, seed, scene_position, anchor: as for :func:`sample_cameras`, which
+            drew ``samples``.
+        samples: the pool's cameras.
+        keep: (K, 6) camera values → (K,) bool, True for a camera to keep.
+        max_draws: draws per rejected sample before giving up.
+
+    Returns:
+        the cameras (rejected ones replaced) and how many were replaced.
+
+    Raises:
+        ValueError: a sample found no acceptable camera in ``max_draws`` draws.
+    """
+    rejected = np.flatnonzero(~np.asarray(keep(samples.values), bool))
+    if len(rejected) == 0:
+        return samples, 0
+    axes = grid_axes(grid, scene_position, anchor)
+    grid = grid.anchored(anchor) if grid.xy_relative and anchor is not None else grid
+    shape = tuple(len(a) for a in axes)
+    grid_index, values = samples.grid_index.copy(), samples.values.copy()
+    taken = set(grid_index.tolist())
+    for i in rejected.tolist():
+        grid_index[i], values[i] = _redraw_one(grid, axes, shape, taken, keep, seed, i, max_draws)
+        taken.add(int(grid_index[i]))
+    return CameraSamples(grid_index=grid_index, values=values), len(rejected)
+
+
+def _redraw_one(
+    grid: GridConfig, axes: list[np.ndarray], shape: tuple[int, ...], taken: set[int],
+    keep: Callable[[np.ndarray], np.ndarray], seed: int | tuple[int, ...], sample: int, max_draws: int,
+) -> tuple[int, np.ndarray]:
+    """The first camera of sample ``sample``'s redraw stream that is not taken and that ``keep`` accepts."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(4, sample)))
+    size = int(np.prod(shape))
+    for _ in range(max_draws):
+        index = int(rng.integers(size))
+        value = np.array([[axis[pos] for axis, pos in zip(axes, np.unravel_index(index, shape), strict=True)]])
+        if grid.jitter:
+            value = _jitter(grid, axes, value, rng)
+        if index not in taken and bool(keep(value)[0]):
+            return index, value[0]
+    raise ValueError(f"sample {sample}: no acceptable camera in {max_draws} draws from the grid")
 
 
 def _jitter(grid: GridConfig, axes: list[np.ndarray], values: np.ndarray, rng: np.random.Generator) -> np.ndarray:

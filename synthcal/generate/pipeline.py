@@ -20,9 +20,11 @@ is the one place that tells them apart.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
@@ -34,8 +36,15 @@ from tqdm.auto import tqdm
 
 from synthcal.config import ConfigError, DatasetSpec, check_dataset_name
 from synthcal.generate.camera import homography as camera_homography
-from synthcal.generate.grid import CameraSamples, sample_cameras
-from synthcal.generate.render import Appearance, apply_appearance_on_ground, render_image, render_semantic
+from synthcal.generate.grid import CameraSamples, redraw_cameras, sample_cameras
+from synthcal.generate.render import (
+    Appearance,
+    apply_appearance_on_ground,
+    foreground_fraction,
+    render_image,
+    render_semantic,
+    render_semantic_and_mask,
+)
 from synthcal.generate.scenes import Scene, build_scene, load_user_scene
 from synthcal.store import (
     CAMERA_FIELDS,
@@ -48,10 +57,12 @@ from synthcal.store import (
     write_samples,
 )
 from synthcal.store.shards import ShardLayout
-from synthcal.utils.atomic import remove_temporaries
-from synthcal.utils.dispatch import dispatch
+from synthcal.utils.atomic import atomic_write, remove_temporaries
+from synthcal.utils.dispatch import check_scheduler, dispatch
+from synthcal.utils.progress import show_progress
 
-__all__ = ["load_scene", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset", "store_path"]
+__all__ = ["load_scene", "anchored_spec", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset",
+           "store_path"]
 
 
 def load_scene(spec: DatasetSpec) -> Scene:
@@ -70,6 +81,9 @@ def _read_scene(spec: DatasetSpec) -> Scene:
     if spec.user_scene is None:
         return build_scene(spec.scene)
     user = spec.user_scene
+    if user.osm is not None:
+        return _osm_scene(spec)
+    assert user.image is not None and user.semantic is not None  # config: PNG files or osm
     return load_user_scene(
         spec.scene, user.image, user.semantic, palette=user.palette, classes=user.classes,
         heading_deg=user.heading_deg, camera_position=user.camera_position,
@@ -77,15 +91,55 @@ def _read_scene(spec: DatasetSpec) -> Scene:
     )
 
 
+def _osm_scene(spec: DatasetSpec) -> Scene:
+    """An OpenStreetMap scene (built once per content, cached), with the entry's camera and heading."""
+    import dataclasses
+
+    from synthcal.generate.scenes.osm import build_osm_scene
+
+    assert spec.user_scene is not None and spec.user_scene.osm is not None
+    user, osm = spec.user_scene, spec.user_scene.osm
+    scene = build_osm_scene(osm.file, osm.center, osm.size_m, osm.pixels_per_metre, name=spec.scene, seed=osm.seed,
+                            classes=osm.classes)
+    if user.camera_position is None and user.heading_deg == 0.0:
+        return scene
+    return dataclasses.replace(scene, heading_deg=user.heading_deg,
+                               camera_position=user.camera_position or scene.camera_position)
+
+
+def _source_attributes(spec: DatasetSpec) -> dict:
+    """``{"source": …}`` for an OpenStreetMap scene (file hash, centre, size, licence); empty for others."""
+    if spec.user_scene is None or spec.user_scene.osm is None:
+        return {}
+    from synthcal.generate.scenes.osm import osm_attributes
+
+    osm = spec.user_scene.osm
+    return {"source": osm_attributes(osm.file, osm.center, osm.size_m, osm.pixels_per_metre, osm.classes, osm.seed)}
+
+
+def anchored_spec(spec: DatasetSpec, scene: Scene) -> DatasetSpec:
+    """``spec`` with a relative grid (``xy_relative``) made absolute at the scene's anchor.
+
+    What a store records and hashes is the absolute grid, so a relative grid and
+    its absolute spelling give byte-identical stores.
+    """
+    if spec.grid is None or not spec.grid.xy_relative:
+        return spec
+    return spec.model_copy(update={"grid": spec.grid.anchored(scene.anchor)})
+
+
 def _check_grid_inside_scene(spec: DatasetSpec, scene: Scene) -> None:
     if spec.grid is None:
         return
     height, width = scene.semantic.shape
+    grid = spec.grid.anchored(scene.anchor)
     for axis, limit in (("x", width - 1), ("y", height - 1)):
-        values = getattr(spec.grid, axis)
+        values, given = getattr(grid, axis), getattr(spec.grid, axis)
         if values is not None and (values.start < 0 or values.stop > limit):
+            relative = (f" (offsets {given.start:g}..{given.stop:g} from the scene's anchor "
+                        f"{scene.anchor[0]:g}, {scene.anchor[1]:g})") if spec.grid.xy_relative else ""
             raise ConfigError(
-                f"datasets.{spec.name}: grid {axis} range {values.start:g}..{values.stop:g} leaves scene "
+                f"datasets.{spec.name}: grid {axis} range {values.start:g}..{values.stop:g}{relative} leaves scene "
                 f"{scene.name!r} ({width} × {height} px; {axis} must lie in 0..{limit})"
             )
 
@@ -114,14 +168,42 @@ def plan_cameras(spec: DatasetSpec, scene: Scene) -> tuple[dict[str, np.ndarray]
         return plan_poses(spec, scene)
     if spec.grid is None:  # DatasetConfig gives exactly one of grid: and poses:
         raise ConfigError(f"dataset {spec.name!r}: neither grid nor poses")
-    cameras = sample_cameras(spec.grid, spec.pool_size, spec.seed, scene.camera_position)
+    cameras = sample_cameras(spec.grid, spec.pool_size, spec.pool_entropy, scene.camera_position, scene.anchor)
+    if spec.min_field_fraction > 0:
+        cameras = _redraw_sparse(spec, scene, cameras)
     camera = {name: cameras.values[:, i] for i, name in enumerate(CAMERA_FIELDS)}
     camera["grid_index"] = cameras.grid_index
     return camera, plan_homographies(spec, scene, cameras)
 
 
-def sample_rng(seed: int, index: int) -> np.random.Generator:
-    """The generator of sample ``index``'s appearance: one stream per sample."""
+def _redraw_sparse(spec: DatasetSpec, scene: Scene, cameras: CameraSamples) -> CameraSamples:
+    """Redraw the cameras whose semantic map has a non-background share below ``min_field_fraction``.
+
+    Every camera's map is rendered here, in the planning process, at the output
+    size (≈ 0.3 ms each at 256 × 144), and :func:`~synthcal.generate.grid.redraw_cameras`
+    replaces the rejected ones from per-sample streams: the same configuration
+    gives the same pool whatever the number of workers.
+    """
+    assert spec.grid is not None  # plan_cameras calls it for grid datasets only
+
+    def keep(values: np.ndarray) -> np.ndarray:
+        homographies = plan_homographies(spec, scene, CameraSamples(np.zeros(len(values), np.int64), values))
+        maps = np.stack([render_semantic(scene.semantic, H, spec.image_size) for H in homographies])
+        return foreground_fraction(maps) >= spec.min_field_fraction
+
+    try:
+        redrawn, _ = redraw_cameras(spec.grid, cameras, keep, spec.pool_entropy, scene.camera_position, scene.anchor)
+    except ValueError as exc:
+        raise ConfigError(f"datasets.{spec.name}.min_field_fraction: {exc}; lower it "
+                          f"(value {spec.min_field_fraction:g})") from None
+    return redrawn
+
+
+def sample_rng(seed: int | tuple[int, ...], index: int) -> np.random.Generator:
+    """The generator of sample ``index``'s appearance: one stream per sample.
+
+    ``seed`` is the pool's :attr:`~synthcal.config.DatasetSpec.pool_entropy`.
+    """
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1, index)))
 
 
@@ -141,10 +223,12 @@ def render_samples(
     # array hot in the cache (≈ 10 % faster than interleaving them).
     for k, H in enumerate(homographies):
         images[k] = render_image(scene.image, H, spec.image_size, spec.supersample)
+    on_scene = np.empty((len(homographies), height, width), bool)
     for k, H in enumerate(homographies):
-        semantics[k] = render_semantic(scene.semantic, H, spec.image_size)
-    for k, H in enumerate(homographies):
-        apply_appearance_on_ground(images[k], H, appearance, sample_rng(spec.seed, first_index + k))
+        semantics[k], on_scene[k] = render_semantic_and_mask(scene.semantic, H, spec.image_size)
+    for k, H in enumerate(homographies):  # off-scene pixels end black, as in the semantic map
+        apply_appearance_on_ground(images[k], H, appearance, sample_rng(spec.pool_entropy, first_index + k),
+                                   on_scene[k])
     return images, semantics
 
 
@@ -169,8 +253,28 @@ def run_shard(task: ShardTask) -> int:
     scene = load_scene(task.spec)
     images, semantics = render_samples(scene, task.homographies, task.start, task.spec)
     write_samples(task.layouts, task.shard, images, semantics)
-    task.done_marker().touch()
+    # The marker holds each sample's non-background pixel count: the store's "foreground" attribute.
+    counts = np.count_nonzero(semantics.reshape(len(semantics), -1), axis=1)
+    with atomic_write(task.done_marker()) as marker:
+        marker.write_text(json.dumps(counts.tolist()))
     return len(images)
+
+
+def _foreground(tasks: list[ShardTask], spec: DatasetSpec) -> dict | None:
+    """The ``foreground`` attribute from the shards' done markers (None if one cannot be read).
+
+    ``empty_samples``: samples whose semantic map is all background (class 0);
+    ``min_fraction`` / ``mean_fraction``: the non-background share of the maps.
+    """
+    try:
+        counts = np.concatenate([np.asarray(json.loads(task.done_marker().read_text()), np.int64) for task in tasks])
+    except (OSError, ValueError):
+        return None
+    if len(counts) != spec.pool_size:
+        return None
+    fractions = counts / float(spec.image_size[0] * spec.image_size[1])
+    return {"empty_samples": int(np.count_nonzero(counts == 0)), "min_fraction": float(fractions.min()),
+            "mean_fraction": float(fractions.mean())}
 
 
 def store_path(out_dir: Path, dataset: str) -> Path:
@@ -195,11 +299,13 @@ def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
             "camera_position": None if scene.camera_position is None else list(scene.camera_position),
             "field": scene.field_polygon(),  # iou_part's clip polygon (SPEC §4, §8)
             "description": scene.description,
+            **_source_attributes(spec),
         },
         "grid": None if spec.grid is None else spec.grid.model_dump(mode="json"),
         "poses": None if spec.poses is None else pose_attributes(spec.poses),
         "N": spec.pool_size,
         "seed": spec.seed,
+        "pool_seed": spec.pool_seed_attributes(),
         "image_size": list(spec.image_size),
         "focal_reference_width": spec.focal_reference_width,
         "shard_size": spec.shard_size,
@@ -224,15 +330,19 @@ def _prepare_partial(spec: DatasetSpec, scene: Scene, partial: Path, progress: P
     # Build the skeleton under a scratch name so a crash here leaves nothing to resume from.
     scratch = partial.with_name(partial.name + ".creating")
     shutil.rmtree(scratch, ignore_errors=True)
-    create_store(scratch, _attributes(spec, scene), spec.image_size, spec.shard_size,
-                 homographies, camera, scene.image, scene.semantic)
+    try:
+        create_store(scratch, _attributes(spec, scene), spec.image_size, spec.shard_size,
+                     homographies, camera, scene.image, scene.semantic)
+    except BaseException:  # disk full, Ctrl-C: leave no skeleton behind
+        shutil.rmtree(scratch, ignore_errors=True)
+        raise
     shutil.rmtree(progress, ignore_errors=True)
     progress.mkdir(parents=True)
     os.replace(scratch, partial)
     return homographies
 
 
-def _execute(tasks: list[ShardTask], workers: int, scheduler: str | None) -> Iterator[int]:
+def _execute(tasks: list[ShardTask], workers: int, scheduler: str | None) -> Generator[int, None, None]:
     """Run shard tasks in-process, on a process pool or on a Dask cluster; yields sample counts."""
     previous = cv2.getNumThreads()
     try:
@@ -246,7 +356,7 @@ def generate_dataset(
     out_dir: str | Path,
     workers: int = 1,
     scheduler: str | None = None,
-    progress: bool = True,
+    progress: bool | None = None,
     on_shard: Callable[[int], None] | None = None,
 ) -> Path:
     """Generate (or resume, or find finished) the store of one dataset.
@@ -256,7 +366,7 @@ def generate_dataset(
         out_dir: folder that receives ``NAME.zarr``.
         workers: local worker processes (1: in this process).
         scheduler: a Dask scheduler address; overrides ``workers``.
-        progress: show a progress bar.
+        progress: show a progress bar (None: when standard error is a terminal).
         on_shard: called after each finished shard with its sample count.
 
     Returns:
@@ -273,9 +383,17 @@ def generate_dataset(
     final = store_path(out_dir, spec.name)
     scene = load_scene(spec)
     _check_grid_inside_scene(spec, scene)
+    spec = anchored_spec(spec, scene)
+    if scheduler is not None and not final.exists():
+        check_scheduler(scheduler)  # before anything is written: an unreachable one leaves nothing behind
     out_dir.mkdir(parents=True, exist_ok=True)
     with store_lock(final):
-        return _generate_locked(spec, scene, final, workers, scheduler, progress, on_shard)
+        try:
+            return _generate_locked(spec, scene, final, workers, scheduler, show_progress(progress), on_shard)
+        except OSError as exc:
+            if exc.filename is None and exc.errno is not None:  # Zarr's writes into a full disk name no file
+                raise OSError(exc.errno, exc.strerror, str(final.with_name(final.name + ".partial"))) from exc
+            raise
 
 
 def _generate_locked(spec: DatasetSpec, scene: Scene, final: Path, workers: int, scheduler: str | None,
@@ -300,15 +418,21 @@ def _generate_locked(spec: DatasetSpec, scene: Scene, final: Path, workers: int,
     pending = [task for task in tasks if not task.done_marker().exists()]
     done = spec.pool_size - sum(len(task.homographies) for task in pending)
     with tqdm(total=spec.pool_size, initial=done, unit="sample", desc=spec.name, disable=not progress) as bar:
-        for count in _execute(pending, workers, scheduler):
-            bar.update(count)
-            if on_shard is not None:
-                on_shard(count)
+        try:
+            with closing(_execute(pending, workers, scheduler)) as counts:  # closing it stops the workers
+                for count in counts:
+                    bar.update(count)
+                    if on_shard is not None:
+                        on_shard(count)
+        except BaseException:  # Ctrl-C, disk full: local workers are gone now; sweep what they left half-written
+            if scheduler is None:
+                remove_temporaries(partial)
+            raise
     # Killed writers (this run's or an earlier one's) may have left temporaries; under
     # the lock none is at work, so whatever matches is debris.
     remove_temporaries(partial)
     group = zarr.open_group(zarr.storage.LocalStore(partial), mode="r+", zarr_format=3)
-    group.attrs.update({"manifest": manifest(partial), "complete": True})
+    group.attrs.update({"manifest": manifest(partial), "foreground": _foreground(tasks, spec), "complete": True})
     remove_temporaries(partial)  # zarr writes zarr.json through a temporary too
     os.replace(partial, final)
     shutil.rmtree(progress_dir, ignore_errors=True)

@@ -48,10 +48,13 @@ __all__ = [
     "ground_rows",
     "mask_invisible",
     "render_semantic",
+    "render_semantic_and_mask",
+    "scene_mask",
     "render_image",
     "Appearance",
     "apply_appearance",
     "apply_appearance_on_ground",
+    "foreground_fraction",
 ]
 
 
@@ -176,6 +179,40 @@ def _supersampled(homography: np.ndarray, supersample: int) -> np.ndarray:
     return A @ homography
 
 
+def _scene_lookup(
+    M: np.ndarray, rows: slice, width: int, scene_shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest bird's-eye pixel of each output pixel of ``rows``, and whether it is on the scene.
+
+    Args:
+        M: :func:`inverse_homography` of the output-resolution homography.
+        rows: a non-empty run of output rows (:func:`ground_rows`).
+        width: output width.
+        scene_shape: ``(Hs, Ws)`` of the bird's-eye image.
+
+    Returns:
+        flat scene indices (0 where not on the scene) and the (len(rows), width)
+        bool mask of pixels that see the scene in front of the camera.
+    """
+    xs = np.arange(width, dtype=np.float64)
+    ys = np.arange(rows.start, rows.stop, dtype=np.float64)[:, None]
+    depth = (M[2, 1] * ys + M[2, 2]) + M[2, 0] * xs
+    scene_height, scene_width = scene_shape
+    # Where depth ≤ 0 the quotients are meaningless (even inf or NaN): ``inside``
+    # rejects those pixels, and whatever their casts give is zeroed below.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        reciprocal = 1.0 / depth
+        col = np.rint(((M[0, 1] * ys + M[0, 2]) + M[0, 0] * xs) * reciprocal)
+        row = np.rint(((M[1, 1] * ys + M[1, 2]) + M[1, 0] * xs) * reciprocal)
+        inside = (depth > 0) & (col >= 0) & (col < scene_width) & (row >= 0) & (row < scene_height)
+        index_type = np.int32 if scene_height * scene_width < 2**31 else np.int64
+        flat = row.astype(index_type)
+        flat *= scene_width
+        flat += col.astype(index_type)
+    flat *= inside
+    return flat, inside
+
+
 def render_semantic(scene_semantic: np.ndarray, homography: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
     """Nearest-neighbour semantic view of the scene through ``homography``.
 
@@ -187,32 +224,70 @@ def render_semantic(scene_semantic: np.ndarray, homography: np.ndarray, image_si
     Returns:
         (height, width) uint8 class map; 0 above the horizon and off the scene.
     """
+    return render_semantic_and_mask(scene_semantic, homography, image_size)[0]
+
+
+def render_semantic_and_mask(
+    scene_semantic: np.ndarray, homography: np.ndarray, image_size: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`render_semantic` and :func:`scene_mask` in one pass.
+
+    Returns:
+        (height, width) uint8 class map and (height, width) bool, True where the
+        pixel sees the scene.
+    """
     width, height = image_size
     view = np.zeros((height, width), np.uint8)
+    mask = np.zeros((height, width), bool)
     M = inverse_homography(homography)
     rows = _RowDepths.of(M, (height, width), 1).ground_rows()
     if rows.start == rows.stop:
-        return view
-    xs = np.arange(width, dtype=np.float64)
-    ys = np.arange(rows.start, rows.stop, dtype=np.float64)[:, None]
-    depth = (M[2, 1] * ys + M[2, 2]) + M[2, 0] * xs
-    scene_height, scene_width = scene_semantic.shape
-    # Where depth ≤ 0 the quotients are meaningless (even inf or NaN): ``inside``
-    # rejects those pixels, and whatever their casts give is zeroed below.
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        reciprocal = 1.0 / depth
-        col = np.rint(((M[0, 1] * ys + M[0, 2]) + M[0, 0] * xs) * reciprocal)
-        row = np.rint(((M[1, 1] * ys + M[1, 2]) + M[1, 0] * xs) * reciprocal)
-        inside = (depth > 0) & (col >= 0) & (col < scene_width) & (row >= 0) & (row < scene_height)
-        index_type = np.int32 if scene_semantic.size < 2**31 else np.int64
-        flat = row.astype(index_type)
-        flat *= scene_width
-        flat += col.astype(index_type)
-    flat *= inside
+        return view, mask
+    flat, inside = _scene_lookup(M, rows, width, scene_semantic.shape[:2])
     labels = scene_semantic.reshape(-1).take(flat)
     labels *= inside
     view[rows] = labels
-    return view
+    mask[rows] = inside
+    return view, mask
+
+
+def scene_mask(homography: np.ndarray, image_size: tuple[int, int], scene_shape: tuple[int, int]) -> np.ndarray:
+    """Pixels that see the scene: in front of the camera, their ground point on the bird's-eye image.
+
+    Exactly the pixels :func:`render_semantic` samples the scene for (the same
+    nearest-pixel positions); the others are class 0 in the semantic map and
+    black in the image.
+
+    Args:
+        homography: (3, 3) bird's-eye → image homography with the depth sign.
+        image_size: ``(width, height)`` of the output.
+        scene_shape: ``(Hs, Ws)`` of the bird's-eye image.
+
+    Returns:
+        (height, width) bool.
+    """
+    width, height = image_size
+    mask = np.zeros((height, width), bool)
+    M = inverse_homography(homography)
+    rows = _RowDepths.of(M, (height, width), 1).ground_rows()
+    if rows.start < rows.stop:
+        mask[rows] = _scene_lookup(M, rows, width, scene_shape)[1]
+    return mask
+
+
+def foreground_fraction(semantic: np.ndarray) -> np.ndarray:
+    """Share of non-background pixels (class ≠ 0) of each semantic map.
+
+    Args:
+        semantic: (..., H, W) class maps.
+
+    Returns:
+        (...) float64 in [0, 1]; 0 for an empty (all-background) map.
+    """
+    semantic = np.asarray(semantic)
+    pixels = semantic.shape[-2] * semantic.shape[-1]
+    counts = np.count_nonzero(semantic.reshape(*semantic.shape[:-2], pixels), axis=-1)
+    return np.asarray(counts / pixels, np.float64)
 
 
 def render_image(
@@ -308,18 +383,28 @@ def apply_appearance(image: np.ndarray, appearance: Appearance, rng: np.random.G
 
 
 def apply_appearance_on_ground(
-    image: np.ndarray, homography: np.ndarray, appearance: Appearance, rng: np.random.Generator
+    image: np.ndarray,
+    homography: np.ndarray,
+    appearance: Appearance,
+    rng: np.random.Generator,
+    on_scene: np.ndarray | None = None,
 ) -> np.ndarray:
     """:func:`apply_appearance` on the rows that see ground, in place; the sky stays black.
 
     Restricting it to those rows saves the time spent on the sky and keeps the
-    contrast pivoting on the ground's mean rather than on black pixels.
+    contrast pivoting on the ground's mean rather than on black pixels. With
+    ``on_scene`` (:func:`scene_mask`), the pixels whose ground point lies off the
+    scene are black afterwards too, as in the semantic map: the brightness offset
+    and noise would otherwise paint them grey. The pixels that see the scene are
+    the same either way.
 
     Args:
         image: (H, W, 3) uint8 RGB at the output resolution of ``homography``.
         homography: (3, 3) bird's-eye → image homography.
         appearance: ranges of the changes.
         rng: the sample's own generator.
+        on_scene: (H, W) bool, True where the pixel sees the scene (None: leave
+            off-scene pixels as drawn).
 
     Returns:
         ``image``.
@@ -329,4 +414,6 @@ def apply_appearance_on_ground(
     if rows.start < rows.stop:
         image[rows] = apply_appearance(image[rows], appearance, rng)
         depths.mask(image)  # blur and brightness reach past the horizon within a row
+        if on_scene is not None:  # cv2.copyTo: ~10× faster than image[~on_scene] = 0
+            image[...] = cv2.copyTo(image, np.ascontiguousarray(on_scene, np.uint8), np.zeros_like(image))
     return image

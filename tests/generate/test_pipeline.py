@@ -8,7 +8,7 @@ import zarr
 
 from synthcal.config import load_config
 from synthcal.generate.camera import homography
-from synthcal.generate.pipeline import generate_dataset, load_scene
+from synthcal.generate.pipeline import anchored_spec, generate_dataset, load_scene
 from synthcal.store import CAMERA_FIELDS, StoreError, open_store
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,7 +43,9 @@ def test_layout_and_attributes(spec, reference):
     np.testing.assert_array_equal(group["scene/semantic"][:], scene.semantic)
     attrs = group.attrs
     assert attrs["complete"] is True and attrs["N"] == n and attrs["seed"] == spec.seed
-    assert attrs["config_hash"] == spec.config_hash() and attrs["scene"]["name"] == "intersection-2"
+    # a relative grid is recorded (and hashed) as the absolute grid it stands for at the scene's anchor
+    assert attrs["config_hash"] == anchored_spec(spec, scene).config_hash() != spec.config_hash()
+    assert attrs["scene"]["name"] == "intersection-2"
     assert attrs["focal_reference_width"] == 256 and attrs["image_size"] == [width, height]
     assert {"numpy", "zarr", "synthcal"} <= set(attrs["software"])
 

@@ -12,6 +12,8 @@ from synthcal.generate.render import (
     mask_invisible,
     render_image,
     render_semantic,
+    render_semantic_and_mask,
+    scene_mask,
     visible_mask,
 )
 
@@ -178,3 +180,40 @@ def test_appearance_on_ground_leaves_the_sky_black():
     assert sky.any() and (~sky).any()
     assert np.all(changed[sky] == 0)
     assert np.abs(changed[~sky].astype(int) - 100).mean() > 1  # the ground did change
+
+
+def _off_scene_reference(H: np.ndarray, size: tuple[int, int], scene_shape: tuple[int, int]) -> np.ndarray:
+    """Pixels whose ground point (projected with numpy's own inverse) is behind the camera or off the scene."""
+    width, height = size
+    xs, ys = np.meshgrid(np.arange(width, dtype=float), np.arange(height, dtype=float))
+    ground = np.einsum("ij,hwj->hwi", np.linalg.inv(H), np.stack([xs, ys, np.ones_like(xs)], -1))
+    u, v = ground[..., 0] / ground[..., 2], ground[..., 1] / ground[..., 2]
+    inside = (ground[..., 2] > 0) & (u > -0.5) & (u < scene_shape[1] - 0.5) & (v > -0.5) & (v < scene_shape[0] - 0.5)
+    return ~inside
+
+
+def test_off_scene_ground_is_black_in_the_rgb_as_in_the_semantic_map():
+    """Issue 14, item 7: brightness and noise must not paint the ground beyond the scene's edge."""
+    rng = np.random.default_rng(0)
+    scene_rgb = rng.integers(60, 200, (300, 200, 3), dtype=np.uint8)
+    scene_ids = rng.integers(0, 4, (300, 200), dtype=np.uint8)
+    # looking from inside the scene toward its right edge, which falls mid-image
+    H = homography([10.0], [-8.0], [60.0], [[100.0, 150.0, 30.0]], SIZE)[0]
+    image = render_image(scene_rgb, H, SIZE, supersample=2)
+    look = Appearance(brightness=40.0, contrast=0.2, blur_sigma=0.8, noise_sigma=5.0)
+    old = apply_appearance_on_ground(image.copy(), H, look, np.random.default_rng(1))
+    on = scene_mask(H, SIZE, scene_ids.shape)
+    new = apply_appearance_on_ground(image.copy(), H, look, np.random.default_rng(1), on)
+    off_ground = ~on & visible_mask(H, SIZE)  # in front of the camera, beyond the scene
+    assert off_ground.sum() > 100 and on.sum() > 100
+    assert np.all(new[~on] == 0)  # exactly black off the scene
+    assert old[off_ground].max() > 10  # where the appearance used to paint it
+    np.testing.assert_array_equal(new[on], old[on])  # the scene's pixels are untouched
+    # the mask is the semantic map's: off-scene pixels are class 0 there, and it agrees with an
+    # independent projection wherever a pixel is not within rounding of the edge
+    semantic, mask = render_semantic_and_mask(scene_ids, H, SIZE)
+    np.testing.assert_array_equal(semantic, render_semantic(scene_ids, H, SIZE))
+    np.testing.assert_array_equal(mask, on)
+    assert np.all(semantic[~on] == 0)
+    reference = _off_scene_reference(H, SIZE, scene_ids.shape)
+    assert (reference != ~on).sum() <= 0.01 * reference.size

@@ -41,8 +41,8 @@ class Scene:
         palette: 4 RGB display colours, one per class.
         heading_deg: added to every pan (SPEC §2).
         camera_position: default ``(X, Y, Z)`` in bird's-eye pixels (``Z`` the
-            height), used when a grid leaves X/Y/Z to the scene; None if the scene
-            has none.
+            height), used when a grid leaves X/Y/Z to the scene, and the anchor
+            of a relative grid (:attr:`anchor`); None if the scene has none.
         pixels_per_metre: ground scale of the bird's-eye image.
         description: one line for listings.
         field: the playing field, the polygon ``iou_part`` is clipped to (SPEC §4,
@@ -60,6 +60,19 @@ class Scene:
     pixels_per_metre: float = 10.0
     description: str = ""
     field: tuple[tuple[float, float], ...] | None = None
+
+    @property
+    def anchor(self) -> tuple[float, float]:
+        """Where a relative grid's X/Y offsets start (``xy_relative``, SPEC §3).
+
+        The camera position's ``(X, Y)`` when the scene has one, else the scene
+        centre ``(Ws / 2, Hs / 2)`` — ``(650, 950)`` for a 1300 × 1900 scene, the
+        centre of the paper's intersection grid.
+        """
+        if self.camera_position is not None:
+            return float(self.camera_position[0]), float(self.camera_position[1])
+        height, width = self.semantic.shape[:2]
+        return width / 2.0, height / 2.0
 
     def field_polygon(self) -> list[list[float]]:
         """The field's vertices ``[[u, v], ...]``; the scene rectangle ``[-0.5, Ws − 0.5] × [-0.5, Hs − 0.5]`` by default."""

@@ -158,10 +158,10 @@ def _check_settings(
     position = None
     if camera_position is not None:
         values = tuple(float(v) for v in camera_position)
-        if len(values) != 3 or not values[2] > 0:
+        if len(values) != 3 or not values[2] > 0 or not np.isfinite(values).all():
             raise SceneError(f"scene {name!r}: camera_position: {tuple(camera_position)} must be (X, Y, Z) with Z > 0")
         position = (values[0], values[1], values[2])
-    if not pixels_per_metre > 0:
+    if not 0 < pixels_per_metre < np.inf:
         raise SceneError(f"scene {name!r}: pixels_per_metre: {pixels_per_metre} must be positive")
     return names, position
 

@@ -27,10 +27,10 @@ test: $(STAMP)
 	$(PY) -m pytest
 
 demo: $(STAMP)
-	$(VENV)/bin/synthcal demo --out demo_out
+	$(VENV)/bin/synthcal demo --out work/demo
 
 bench: $(STAMP)
 	$(PY) benchmarks/generate.py
 
 clean:
-	rm -rf $(VENV) demo_out
+	rm -rf $(VENV) work/demo

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import os
 import sys
 import time
 import warnings
@@ -35,14 +36,81 @@ def _cmd_scenes(args: argparse.Namespace) -> None:
     for name, description in BUILTIN_SCENES.items():
         print(f"{name:16s} built in   {description}")
     for name, scene in load_config(args.config).config.scenes.items():
-        print(f"{name:16s} user       {scene.image} + {scene.semantic}")
+        if scene.osm is not None:
+            lat, lon = scene.osm.center
+            print(f"{name:16s} osm        {scene.osm.file} around ({lat}, {lon}), © OpenStreetMap contributors")
+        else:
+            print(f"{name:16s} user       {scene.image} + {scene.semantic}")
+
+
+def _parse_pair(text: str, what: str) -> tuple[float, float]:
+    """``"52.1,5.2"`` → (52.1, 5.2); argparse reports a ValueError as a bad value of the option."""
+    try:
+        first, second = (float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}, two numbers separated by a comma (value {text!r})") \
+            from None
+    return first, second
+
+
+def _cmd_osm(args: argparse.Namespace) -> None:
+    import cv2
+
+    from synthcal.generate.scenes.osm import build_osm_scene
+    from synthcal.utils.atomic import atomic_write
+
+    scene = build_osm_scene(args.file, args.center, args.size, args.ppm, name=args.name, seed=args.seed)
+    pictures = {"image.png": scene.image[..., ::-1], "semantic.png": scene.semantic}
+    args.out.mkdir(parents=True, exist_ok=True)  # only once the scene is built: a bad input writes nothing
+    for filename, array in pictures.items():
+        ok, encoded = cv2.imencode(".png", array)
+        if not ok:
+            raise OSError(f"{args.out / filename}: could not encode the PNG")
+        with atomic_write(args.out / filename) as tmp:
+            tmp.write_bytes(encoded.tobytes())
+    height, width = scene.semantic.shape
+    lat, lon = args.center
+    print(f"{args.out / 'image.png'}  {args.out / 'semantic.png'}  ({width} × {height} px, classes "
+          f"{', '.join(f'{i} {c}' for i, c in enumerate(scene.classes))}; © OpenStreetMap contributors, ODbL)")
+    print("# paste under scenes: in datasets.yaml (file relative to the YAML), then a dataset using it:")
+    print(f"{scene.name}:\n  osm: {{file: {args.file}, center: [{lat}, {lon}], size_m: [{args.size[0]:g}, "
+          f"{args.size[1]:g}], pixels_per_metre: {args.ppm:g}, seed: {args.seed}}}")
+    print(f"# datasets:\n#   {scene.name}: {{scene: {scene.name}, grid: intersection, pool_size: 200000}}")
+
+
+def _cmd_datasets(args: argparse.Namespace) -> None:
+    from synthcal.config import load_config
+
+    config = load_config(args.config)
+    print(f"{'DATASET':16s} generate and bench ({'profile ' + repr(args.profile) if args.profile else 'no profile'})")
+    for name in config.dataset_names:
+        print(f"{name:16s} {_describe_dataset(config, name, args.profile)}")
+    mixed = config.config.mixed_dictionaries
+    if mixed:
+        print(f"\n{'LABEL':16s} bench only: a dataset's own train/test sets with a mixed dictionary")
+    for target, sources in mixed.items():
+        short = target.removeprefix("intersection-")
+        label = f"mixed-{short}" if short.isdigit() else f"mixed-{target}"
+        print(f"{label:16s} {target}'s train/test sets; templates from {', '.join(sources)}")
+
+
+def _describe_dataset(config: LoadedConfig, name: str, profile: str | None) -> str:
+    """One line on a dataset: its scene, its cameras and pool size, where its dictionary comes from."""
+    entry = config.config.datasets[name]
+    spec = config.resolve(name, profile)
+    kind = "user scene" if entry.scene in config.config.scenes else "scene"
+    if entry.poses is not None:
+        cameras = f"the {spec.pool_size} real cameras of {entry.poses!r} (fixed train/test sets)"
+    else:
+        cameras = f"{spec.pool_size:,} samples from grid {entry.grid!r}"
+    source = f"; dictionary from {', '.join(spec.mixed_sources)}" if not spec.own_dictionary else ""
+    return f"{kind} {entry.scene!r}, {cameras} at {spec.image_size[0]} × {spec.image_size[1]}{source}"
 
 
 def _cmd_scene(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import load_scene
     from synthcal.generate.scenes import draw_scene
-    from synthcal.viz import write_png
 
     config = load_config(args.config)
     dataset = next((d for d, e in config.config.datasets.items() if e.scene == args.name), None)
@@ -52,7 +120,7 @@ def _cmd_scene(args: argparse.Namespace) -> None:
         from synthcal.generate.scenes import build_scene
 
         scene = build_scene(args.name)
-    print(write_png(args.output, draw_scene(scene)))
+    print(write_picture(args.output, draw_scene(scene)))
 
 
 def _cmd_generate(args: argparse.Namespace) -> None:
@@ -65,7 +133,7 @@ def _cmd_generate(args: argparse.Namespace) -> None:
     for spec in specs:
         started = time.perf_counter()
         path = generate_dataset(spec, args.out, workers=args.workers, scheduler=args.scheduler,
-                                progress=not args.quiet)
+                                progress=_progress(args))
         paths.append(path)
         print(f"{path}  {spec.pool_size} samples  {time.perf_counter() - started:.1f} s")
     if args.splits:
@@ -172,7 +240,7 @@ def _cmd_worldcup_stats(args: argparse.Namespace) -> None:
           f"({100 * inside['all'].mean():.1f} %)")
     if args.montage is not None:
         from synthcal.generate.pipeline import render_samples
-        from synthcal.viz import sample_strip, tile, write_png
+        from synthcal.viz import sample_strip, tile
 
         # Rendered exactly as in the store (same appearance stream per pool index).
         first, stop = poses.partition["test"]
@@ -180,7 +248,7 @@ def _cmd_worldcup_stats(args: argparse.Namespace) -> None:
         for k in np.linspace(first, stop - 1, args.count).round().astype(int):
             image, semantic = render_samples(scene, H[k:k + 1], int(k), spec)
             strips.append(sample_strip(image[0], semantic[0], scene.palette))
-        print(f"montage of {args.count} test poses: {write_png(args.montage, tile(strips, columns=2))}")
+        print(f"montage of {args.count} test poses: {write_picture(args.montage, tile(strips, columns=2))}")
 
 
 def _cmd_info(args: argparse.Namespace) -> None:
@@ -206,9 +274,26 @@ def _cmd_info(args: argparse.Namespace) -> None:
     if attrs.get("poses"):
         parts = ", ".join(f"{name} {b - a}" for name, (a, b) in attrs["poses"]["partition"].items())
         print(f"poses        {attrs['poses']['set']}: {parts} (given cameras)")
+    _print_pool(attrs)
     print(f"config hash  {attrs['config_hash'][:16]}…")
     print(f"software     {', '.join(f'{k} {v}' for k, v in attrs['software'].items())}")
     _print_splits(group)
+
+
+def _print_pool(attrs: dict) -> None:
+    """``info``'s lines on the pool's seed and its empty samples (all-background semantic maps)."""
+    if "pool_seed" in attrs:
+        pool_seed = attrs["pool_seed"]
+        print(f"pool seed    entropy {pool_seed['entropy']}: {pool_seed['rule']}")
+    foreground = attrs.get("foreground")
+    if foreground is None:
+        print("empty maps   not recorded (store made before synthcal counted them, or incomplete)")
+        return
+    empty, n = foreground["empty_samples"], attrs["N"]
+    threshold = (attrs.get("config") or {}).get("min_field_fraction") or 0.0
+    redraw = f"; min_field_fraction {threshold:g}: cameras below it redrawn" if threshold else ""
+    print(f"empty maps   {empty} of {n} ({100 * empty / max(n, 1):.1f} %) all background; non-background share "
+          f"mean {100 * foreground['mean_fraction']:.1f} %, min {100 * foreground['min_fraction']:.1f} %{redraw}")
 
 
 def _cmd_verify(args: argparse.Namespace) -> int:
@@ -248,7 +333,7 @@ def _print_splits(group: zarr.Group) -> None:
 
 def _cmd_show(args: argparse.Namespace) -> None:
     from synthcal.store import attributes, open_store, read_samples
-    from synthcal.viz import sample_strip, tile, write_png
+    from synthcal.viz import sample_strip, tile
 
     group = open_store(args.store)
     size = attributes(group)["N"]
@@ -257,35 +342,43 @@ def _cmd_show(args: argparse.Namespace) -> None:
     samples = read_samples(group, index)
     palette = attributes(group)["scene"]["palette"]
     strips = [sample_strip(samples["image"][k], samples["semantic"][k], palette) for k in range(count)]
-    print(write_png(args.output, tile(strips, columns=args.columns)))
+    print(write_picture(args.output, tile(strips, columns=args.columns)))
 
 
 def _cmd_demo(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import generate_dataset
-    from synthcal.store import attributes, open_store, read_samples
-    from synthcal.viz import sample_strip, tile, write_png
+    from synthcal.viz import labelled_rows, write_png
 
     config = load_config(args.config)
     out = Path(args.out)
-    strips = []
+    rows = []
     print(f"synthcal demo: profile {args.profile!r}, {args.workers} workers, output in {out}/")
     for name in config.dataset_names:
         spec = config.resolve(name, args.profile)
         started = time.perf_counter()
-        path = generate_dataset(spec, out, workers=args.workers, progress=True)
-        group = open_store(path)
+        path = generate_dataset(spec, out, workers=args.workers)  # a progress bar on a terminal
         size = sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
         print(f"  {name:16s} {spec.pool_size:6d} samples  {time.perf_counter() - started:6.1f} s  "
               f"{size / spec.pool_size / 1024:6.1f} KiB/sample  {path}")
-        samples = read_samples(group, np.arange(2))
-        palette = attributes(group)["scene"]["palette"]
-        strips += [sample_strip(samples["image"][k], samples["semantic"][k], palette) for k in range(2)]
-    montage = write_png(out / "montage.png", tile(strips, columns=2))
-    print(f"montage: {montage}  (per scene two samples: image | semantic map | overlay)")
+        rows.append((name, _demo_examples(path)))
+    montage = write_png(out / "montage.png", labelled_rows(rows))
+    print(f"montage: {montage}  (per dataset two samples with labelled ground: image | semantic map | overlay)")
     if args.no_bench:
         return
     _demo_bench(args, config, out)
+
+
+def _demo_examples(store: Path, count: int = 2) -> list[np.ndarray]:
+    """``count`` sample strips of a store for the demo montage, chosen among its first 64 for labelled ground."""
+    from synthcal.store import attributes, open_store, read_samples
+    from synthcal.viz import non_empty_examples, sample_strip
+
+    group = open_store(store)
+    first = read_samples(group, np.arange(min(64, attributes(group)["N"])))
+    palette = attributes(group)["scene"]["palette"]
+    return [sample_strip(first["image"][k], first["semantic"][k], palette)
+            for k in non_empty_examples(first["semantic"], count)]
 
 
 # The demo's small benchmark: one scene, the two references and the two models
@@ -309,7 +402,7 @@ def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> No
     started = time.perf_counter()
     runs = expand_runs(out, [DEMO_DATASET], DEMO_ESTIMATORS, seeds, args.profile, training.settings(),
                        segmentations=(training.segmentation,))
-    frame = run_sweep(runs, out / "results", device=args.device)
+    frame = run_sweep(runs, out / "results", device=args.device, progress=_progress(args))
     print(f"benchmark: {len(runs)} runs in {time.perf_counter() - started:.0f} s; results in {out / 'results'}\n")
     _print_tables(frame, None, "md", False)
 
@@ -340,6 +433,46 @@ def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pap
                 raise _UserError(f"table {name!r}: {error}") from None
 
 
+def _paired_sides(frame: pd.DataFrame, sides: Sequence[str]) -> tuple[str, str, str]:
+    """``--paired A B`` → ``(key, a, b)``: model labels or estimator names (``baseline`` is ``sha2020``),
+    or ``KEY=VALUE`` for another key (``loss=top-mse loss=mse``)."""
+    from synthcal.eval.tables import PAIR_KEYS
+
+    keys, values = [], []
+    for side in sides:
+        key, _, value = side.rpartition("=")
+        key = key or "model"
+        if key not in PAIR_KEYS or key == "dataset":
+            raise _UserError(f"--paired: cannot pair over {key!r} (value {side!r}); a model, or KEY=VALUE with KEY "
+                             f"one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
+        if key == "model":  # an estimator's name stands for its table label
+            names = list(frame.loc[frame["estimator"] == value, "model"]) if "estimator" in frame else []
+            value = str(names[0]) if names else value
+        present = set(frame[key].dropna().astype(str)) if key in frame else set()
+        if value not in present:
+            raise _UserError(f"--paired: no runs with {key} {value!r}; present: {', '.join(sorted(present)) or 'none'}")
+        keys.append(key)
+        values.append(value)
+    if keys[0] != keys[1]:
+        raise _UserError(f"--paired: both sides must vary the same key (value {' '.join(sides)!r})")
+    return keys[0], values[0], values[1]
+
+
+def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str) -> None:
+    """``table --paired A B``: per-seed differences A − B per cell, beside the paper's difference."""
+    from synthcal.eval.harness import table_runs
+    from synthcal.eval.tables import format_paired
+
+    key, a, b = _paired_sides(frame, sides)
+    try:
+        # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
+        # not over the key compared (its one value would be paired with itself).
+        frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
+        print(format_paired(frame, a, b, key, fmt, metric, aliases={"soccer": "worldcup2014"}))
+    except ValueError as error:
+        raise _UserError(f"--paired: {error}") from None
+
+
 def _split_by(frame: pd.DataFrame, keys: Sequence[str]) -> list[tuple[str, pd.DataFrame]]:
     """Parts of ``frame`` with one value of each key; rows where a key is missing join every part."""
     parts = [("", frame)]
@@ -356,25 +489,53 @@ class _UserError(ValueError):
     """A problem with the user's request, printed without a traceback."""
 
 
-def _cmd_bench(args: argparse.Namespace) -> None:
-    from synthcal.config import load_config
-    from synthcal.eval.harness import expand_runs, run_sweep
+def _bench_limits(config: LoadedConfig, profile: str | None) -> dict[str, int] | None:
+    """The profile's ``splits:`` as caps on the stored splits (None: no profile or none set)."""
+    entry = config.config.profiles.get(profile) if profile is not None else None
+    return None if entry is None or entry.splits is None else entry.splits.model_dump()
 
-    training = load_config(args.config).training(args.profile)
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    """Exit 0 when every run is ok, 1 when any failed (each printed with its reason), 130 on Ctrl-C."""
+    from synthcal.config import load_config
+    from synthcal.eval.harness import check_device, expand_runs, plan_lines, run_sweep
+
+    config = load_config(args.config)
+    training = config.training(args.profile)
+    if args.scheduler is None:  # a cluster's workers may have devices this machine lacks
+        try:
+            check_device(args.device)
+        except ValueError as error:
+            raise _UserError(str(error)) from None
     segmentations = args.segmentation or [training.segmentation]
+    settings = training.settings()  # --stn-template / --class-reduction override the profile's
+    settings.update({key: value for key in ("stn_template", "class_reduction")
+                     if (value := getattr(args, key)) is not None})
     runs = expand_runs(args.data, args.datasets, args.estimator, parse_seeds(args.seeds), args.profile,
-                       training.settings(), args.training, args.loss, args.matching, segmentations)
+                       settings, args.training, args.loss, args.matching, segmentations,
+                       device=args.device, limits=_bench_limits(config, args.profile))
+    print(f"bench: {len(runs)} runs, profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
+    print("\n".join(plan_lines(runs)), flush=True)
     started = time.perf_counter()
-    frame = run_sweep(runs, args.results, device=args.device, scheduler=args.scheduler, progress=not args.quiet,
-                      timeout=args.timeout or None)
+    try:
+        frame = run_sweep(runs, args.results, scheduler=args.scheduler, progress=_progress(args),
+                          timeout=args.timeout or None)
+    except KeyboardInterrupt:  # the running run's process is already killed; finished runs stay
+        print(f"synthcal: interrupted; finished runs are kept in {args.results}: run the same command again "
+              f"to resume", file=sys.stderr)
+        return 130
     ids = {run.id for run in runs}
     frame = frame[frame["run_id"].isin(ids)]
     failed = frame[frame["status"] != "ok"]
     print(f"{len(runs)} runs ({len(failed)} failed) in {time.perf_counter() - started:.0f} s; "
           f"results in {args.results}\n")
-    for row in failed.itertuples():
-        print(f"  failed: {row.run_id}: {row.error or 'no reason recorded'}")
     _print_tables(frame, None, "md", False)
+    for row in failed.itertuples():
+        print(f"failed: {row.run_id}: {row.error or 'no reason recorded'}")
+    if len(failed):
+        print(f"{len(failed)} run(s) failed; fix the cause and run the same command again: failed runs are run "
+              f"again, finished ones kept")
+    return 1 if len(failed) else 0
 
 
 def _cmd_table(args: argparse.Namespace) -> None:
@@ -389,7 +550,10 @@ def _cmd_table(args: argparse.Namespace) -> None:
     frame = collect_results(args.results)
     if frame.empty:
         raise _UserError(f"{args.results}: no finished runs")
-    _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric)
+    if args.paired:
+        _print_paired(frame, args.paired, args.format, args.metric)
+    else:
+        _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric)
     # Failed runs count in the means (IoU 0, completeness 0); say which and why, off stdout for CSV.
     for line in failed_runs(frame):
         if args.format == "csv":
@@ -425,31 +589,104 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _positive_int(text: str) -> int:
+    """``--workers``, ``-n``, ``--columns``, ``--count``: an integer ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer ≥ 1 (value {text!r})")
+    return value
+
+
+# Picture formats of ``-o`` / ``--montage``: suffix → OpenCV's encoder.
+_PICTURES = {".png": ".png", ".jpg": ".jpg", ".jpeg": ".jpg"}
+_JPEG_QUALITY = 95
+
+
+def _picture_path(text: str) -> Path:
+    """``-o`` of ``scene`` / ``show``, ``--montage``: a path ending in .png, .jpg or .jpeg."""
+    path = Path(text)
+    if path.suffix.lower() not in _PICTURES:
+        raise argparse.ArgumentTypeError(f"{text!r}: unknown picture format {path.suffix or '(no suffix)'!r}; "
+                                         f"name a {', '.join(_PICTURES)} file")
+    return path
+
+
+def write_picture(path: Path, rgb: np.ndarray) -> Path:
+    """Write an RGB picture as PNG or JPEG (by the suffix), atomically; returns ``path``."""
+    import cv2
+
+    from synthcal.utils.atomic import atomic_write
+
+    extension = _PICTURES[path.suffix.lower()]
+    params = [cv2.IMWRITE_JPEG_QUALITY, _JPEG_QUALITY] if extension == ".jpg" else []
+    ok, data = cv2.imencode(extension, cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), params)
+    if not ok:
+        raise _UserError(f"{path}: could not encode the picture")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_write(path) as tmp:
+        tmp.write_bytes(data.tobytes())
+    return path
+
+
+def _progress(args: argparse.Namespace) -> bool:
+    """Progress bars: on a terminal, unless ``--quiet``."""
+    from synthcal.utils.progress import show_progress
+
+    return not getattr(args, "quiet", False) and show_progress()
+
+
 def _add_config(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, default=None,
                         help="datasets.yaml to use (default: ./datasets.yaml, else the packaged one)")
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from synthcal import __version__
+
     parser = argparse.ArgumentParser(prog="synthcal", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                        help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                help="one of the commands below; `synthcal COMMAND -h` tells more")
 
     p = sub.add_parser("scenes", help="list the scenes")
     _add_config(p)
     p.set_defaults(func=_cmd_scenes)
 
     p = sub.add_parser("scene", help="draw one scene (bird's-eye RGB and semantic map)")
-    p.add_argument("name")
-    p.add_argument("-o", "--output", type=Path, required=True)
+    p.add_argument("name", help="a scene name (see `synthcal scenes`)")
+    p.add_argument("-o", "--output", type=_picture_path, required=True, help="picture to write (.png, .jpg)")
     _add_config(p)
     p.set_defaults(func=_cmd_scene)
 
+    p = sub.add_parser("osm", help="build a scene from an OpenStreetMap extract around a centre: writes image.png "
+                                    "and semantic.png (class ids) and prints the datasets.yaml entry")
+    p.add_argument("file", type=Path, help=".osm, .osm.pbf or .osm.bz2 extract")
+    p.add_argument("--center", type=functools.partial(_parse_pair, what="LAT,LON"), required=True,
+                   metavar="LAT,LON", help="scene centre in WGS84 degrees")
+    p.add_argument("--size", type=functools.partial(_parse_pair, what="WIDTH,HEIGHT"), default=(130.0, 190.0),
+                   metavar="W,H", help="window in metres (default 130,190)")
+    p.add_argument("--ppm", type=float, default=10.0, help="pixels per metre (default 10)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the RGB (cars, roofs, trees, textures)")
+    p.add_argument("--name", default=None, help="scene name (default: the file name)")
+    p.add_argument("-o", "--out", type=Path, required=True, help="folder receiving image.png and semantic.png")
+    p.set_defaults(func=_cmd_osm)
+
+    p = sub.add_parser("datasets", help="list every dataset name generate and bench accept, one line each")
+    p.add_argument("--profile", default=None, help="show the pool sizes under this profile of datasets.yaml")
+    _add_config(p)
+    p.set_defaults(func=_cmd_datasets)
+
     p = sub.add_parser("generate", help="generate the sharded store of datasets")
-    p.add_argument("datasets", nargs="+", metavar="DATASET")
+    p.add_argument("datasets", nargs="+", metavar="DATASET", help="dataset names (see `synthcal datasets`)")
     p.add_argument("--profile", default=None, help="profile of datasets.yaml (smoke, demo, quick, paper)")
     p.add_argument("--out", type=Path, required=True, help="folder receiving DATASET.zarr")
-    p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the shards on this Dask scheduler")
+    p.add_argument("--workers", type=_positive_int, default=1, help="local worker processes (default 1)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the shards on this Dask scheduler (tcp://host:port; it must answer within 5 s)")
     p.add_argument("--n", type=int, default=None, help="pool size (overrides the configuration)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--splits", action="store_true",
@@ -458,7 +695,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("split", help="draw the per-seed train/test/dictionary splits inside a store")
-    p.add_argument("store", type=Path)
+    p.add_argument("store", type=Path, help="the store, e.g. work/data/intersection-1.zarr")
     p.add_argument("--seeds", default=None, help="e.g. 0-4 or 0,2,5 (default: the store's split_seeds)")
     for name in ("train", "test", "dictionary"):
         p.add_argument(f"--{name}", type=int, default=None, metavar="N",
@@ -467,33 +704,34 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("worldcup-stats", help="the real World Cup 2014 cameras against a camera grid")
     p.add_argument("--grid", default="soccer", help="grid of datasets.yaml (default soccer)")
-    p.add_argument("--montage", type=Path, default=None, help="also render test poses into this PNG")
-    p.add_argument("--count", type=int, default=12, help="test poses in the montage (default 12)")
+    p.add_argument("--montage", type=_picture_path, default=None,
+                   help="also render test poses into this picture (.png, .jpg)")
+    p.add_argument("--count", type=_positive_int, default=12, help="test poses in the montage (default 12)")
     _add_config(p)
     p.set_defaults(func=_cmd_worldcup_stats)
 
     p = sub.add_parser("info", help="what a store holds (from its attributes)")
-    p.add_argument("store", type=Path)
+    p.add_argument("store", type=Path, help="the store, NAME.zarr (or an unfinished NAME.zarr.partial)")
     p.add_argument("--json", action="store_true", help="print the raw attributes")
     p.set_defaults(func=_cmd_info)
 
     p = sub.add_parser("verify", help="read stores back whole: manifest, every shard index and chunk checksum, "
                                        "every chunk decodes; exit 1 when any file is damaged")
-    p.add_argument("stores", nargs="+", type=Path, metavar="STORE")
+    p.add_argument("stores", nargs="+", type=Path, metavar="STORE", help="the stores to check")
     p.set_defaults(func=_cmd_verify)
 
     p = sub.add_parser("show", help="montage of samples: image | semantic | overlay")
-    p.add_argument("store", type=Path)
-    p.add_argument("-n", type=int, default=16)
-    p.add_argument("-o", "--output", type=Path, required=True)
-    p.add_argument("--columns", type=int, default=None)
+    p.add_argument("store", type=Path, help="the store, NAME.zarr")
+    p.add_argument("-n", type=_positive_int, default=16, help="samples shown, evenly spaced in the pool (default 16)")
+    p.add_argument("-o", "--output", type=_picture_path, required=True, help="picture to write (.png, .jpg)")
+    p.add_argument("--columns", type=_positive_int, default=None, help="samples per row (default: about square)")
     p.set_defaults(func=_cmd_show)
 
     p = sub.add_parser("demo", help="generate every built-in dataset at demo size, draw a montage, "
                                      "run a small benchmark on one scene and print its table")
-    p.add_argument("--out", type=Path, default=Path("demo_out"))
-    p.add_argument("--profile", default="demo")
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--out", type=Path, default=Path("work/demo"), help="output folder (default work/demo)")
+    p.add_argument("--profile", default="demo", help="profile of datasets.yaml (default demo)")
+    p.add_argument("--workers", type=_positive_int, default=2, help="local worker processes (default 2)")
     p.add_argument("--device", default="auto", help="torch device of the models (default auto)")
     p.add_argument("--no-bench", action="store_true", help="generate and draw only")
     _add_config(p)
@@ -510,11 +748,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", type=Path, required=True, help="results folder (runs/, cache/)")
     from synthcal.config import LOSSES, MATCHINGS, SEGMENTATIONS, TRAININGS  # the vocabularies, defined once
 
-    p.add_argument("--training", nargs="+", default=["step-by-step"], choices=TRAININGS)
-    p.add_argument("--loss", nargs="+", default=["top-mse"], choices=LOSSES)
-    p.add_argument("--matching", nargs="+", default=["top-mse"], choices=MATCHINGS)
+    p.add_argument("--training", nargs="+", default=["step-by-step"], choices=TRAININGS,
+                   help="how the bundled models train (default step-by-step)")
+    p.add_argument("--loss", nargs="+", default=["top-mse"], choices=LOSSES,
+                   help="warp losses of the bundled models (default top-mse)")
+    p.add_argument("--matching", nargs="+", default=["top-mse"], choices=MATCHINGS,
+                   help="template matching score of the bundled models (default top-mse)")
     p.add_argument("--segmentation", nargs="+", default=None, choices=SEGMENTATIONS,
                    help="default: the profile's")
+    from synthcal.config import CLASS_REDUCTIONS, STN_TEMPLATES
+
+    p.add_argument("--stn-template", default=None, choices=STN_TEMPLATES,
+                   help="the template the bundled STNs read in training: retrieved (the Siamese's nearest, as at "
+                        "test time) or ground-truth (lowest matching score); default: the profile's (retrieved)")
+    p.add_argument("--class-reduction", default=None, choices=CLASS_REDUCTIONS,
+                   help="how MSE, Top-MSE and the matching scores reduce over the class channels: sum (squared "
+                        "distance of per-pixel class vectors) or mean (that / 4); default: the profile's (sum)")
     p.add_argument("--device", default="auto", help="torch device: auto (CUDA when available), cpu, cuda")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the runs on this Dask scheduler")
     p.add_argument("--timeout", type=_seconds, default=_DEFAULT_TIMEOUT, metavar="SECONDS",
@@ -526,40 +775,77 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser("table", help="the paper's tables from a results folder")
-    p.add_argument("results", type=Path)
+    p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
     p.add_argument("--layout", choices=["models", "matching", "mixed"], default=None,
                    help="default: models (own dictionaries) and mixed (mixed dictionaries) where present")
-    p.add_argument("--format", choices=["md", "latex", "csv"], default="md")
+    p.add_argument("--format", choices=["md", "latex", "csv"], default="md", help="table format (default md)")
     p.add_argument("--compare-paper", action="store_true",
                    help="add the published figures (for each reading of the paper's IoU: iou, iou_bg, iou_weighted)")
     p.add_argument("--metric", default="iou",
                    help="iou (default; mean over classes 1-3), iou_bg (classes 0-3), iou_weighted (sklearn's "
                         "weighted Jaccard, as the public re-implementation of Sha et al.), iou_part, iou_whole")
+    p.add_argument("--paired", nargs=2, default=None, metavar=("A", "B"),
+                   help="instead of the tables: per dataset and loss (and other settings), the mean ± std over "
+                        "seeds of the per-seed difference A − B of two models trained on the same split, the "
+                        "seeds where A > B, and the paper's A − B; A, B: models (proposed sha2020) or KEY=VALUE "
+                        "(loss=top-mse loss=mse)")
     p.set_defaults(func=_cmd_table)
 
     p = sub.add_parser("plot", help="IoU bars per dataset and estimator, and overlays of test images")
-    p.add_argument("results", type=Path)
+    p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
     p.add_argument("-o", "--output", type=Path, required=True, help="folder receiving the PNGs")
-    p.add_argument("--count", type=int, default=3, help="test images per overlay figure (default 3)")
+    p.add_argument("--count", type=_positive_int, default=3, help="test images per overlay figure (default 3)")
     p.set_defaults(func=_cmd_plot)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``synthcal`` console script."""
+    """Entry point of the ``synthcal`` console script.
+
+    Returns:
+        0, or 1 (``verify``: a damaged store), 2 (a user error, printed as one line
+        ``synthcal: error: …``), 130 (interrupted: Ctrl-C), 141 (the reader of
+        standard output went away, as in ``synthcal table … | head``).
+    """
+    command = None
+    try:
+        args = build_parser().parse_args(argv)
+        command = args.command
+        return _run(args)
+    except KeyboardInterrupt:
+        return _interrupted(command)
+
+
+# What a rerun of an interrupted command keeps (it resumes); other commands just stop.
+_RESUMES = {"generate": "finished shards", "split": "seeds already drawn", "bench": "finished runs",
+            "demo": "finished stores and runs"}
+
+
+def _interrupted(command: str | None) -> int:
+    """Ctrl-C: one line saying how to go on, exit status 130 (128 + SIGINT) as a shell reports it."""
+    kept = _RESUMES.get(command or "")
+    hint = f"; run the same command again to resume ({kept} are kept)" if kept else ""
+    print(f"synthcal: interrupted{hint}", file=sys.stderr)
+    return 130
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the command; user errors (bad input, files, stores) as one line, exit 2."""
     from synthcal.config import ConfigError
     from synthcal.estimators import EstimatorError
     from synthcal.generate.scenes import SceneError
     from synthcal.store import StoreError
 
-    args = build_parser().parse_args(argv)
     default_format = warnings.formatwarning
     warnings.formatwarning = functools.partial(_format_warning, default_format)
     try:
         status = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here rather than at exit
     except (ConfigError, SceneError, StoreError, EstimatorError, _UserError) as exc:
         print(f"synthcal: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        return _stdout_gone()
     except OSError as exc:  # disk full, permission denied, a folder where a file should be: name the path
         where = ": ".join(str(name) for name in (exc.filename, exc.filename2) if name is not None)
         print(f"synthcal: error: {where + ': ' if where else ''}{exc.strerror or exc}", file=sys.stderr)
@@ -567,6 +853,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         warnings.formatwarning = default_format
     return status if isinstance(status, int) else 0
+
+
+def _stdout_gone() -> int:
+    """Standard output's reader went away (``synthcal table RESULTS | head``): stop quietly.
+
+    Python would try to flush standard output again at exit and complain, so it is
+    pointed at /dev/null first (the recipe of Python's ``signal`` documentation).
+    """
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # standard output replaced by an object without a descriptor
+        pass
+    return 141  # 128 + SIGPIPE, what a shell reports for a writer killed by the closed pipe
 
 
 def _format_warning(default: Callable[..., str], message: Warning | str, category: type[Warning],

@@ -20,7 +20,8 @@ target's scene (``homography_frame`` says so in the store).
 moved into place with ``os.replace``, so ``splits/seed-<s>`` is always whole. A
 seed whose recorded recipe (pool, sizes, sources) equals the request is left alone,
 so redrawing is idempotent; a changed recipe replaces the group (the old one is
-moved aside first, then deleted). One writer per store at a time: drawing holds the
+moved aside first, then deleted), with a warning (:class:`SplitsResized`) when the
+sizes change. One writer per store at a time: drawing holds the
 store's lock (:func:`synthcal.store.store_lock`, the one ``generate`` holds), and
 sweeps away the scratch folders of a writer that was killed. Index arrays end in
 the ``crc32c`` codec, as every array of the store does.
@@ -39,6 +40,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -291,13 +293,37 @@ def _draw_locked(store: Path, seeds: Sequence[int] | None, sizes: SplitSizes | N
             "mixed_source_config_hash": hashes if has_mixed else {},
             "mixed_size": len(mixed_arrays[seed][1]) if has_mixed else 0,
         }
-        if _recorded_recipe(store, seed) == recipe:
+        recorded = _recorded_recipe(store, seed)
+        if recorded == recipe:
             unchanged.append(seed)
             continue
+        _warn_if_resized(store, seed, recorded, recipe)
         mixed_part = (*mixed_arrays[seed], _mixed_attrs(sources, hashes)) if has_mixed else None
         _write_seed(store, seed, recipe, sets[seed], mixed_part)
         drawn.append(seed)
     return DrawResult(store, tuple(drawn), tuple(unchanged), note)
+
+
+class SplitsResized(UserWarning):
+    """A seed's splits were replaced by sets of other sizes (results on the old ones no longer match)."""
+
+
+def _sizes_text(recipe: dict[str, Any]) -> str:
+    """``train 24, test 8, dictionary 12`` (and the mixed dictionary's size) of a recorded recipe."""
+    sizes = dict(recipe.get("sizes") or {})
+    if recipe.get("mixed_size"):
+        sizes["mixed dictionary"] = recipe["mixed_size"]
+    return ", ".join(f"{name} {size}" for name, size in sizes.items())
+
+
+def _warn_if_resized(store: Path, seed: int, recorded: dict[str, Any] | None, recipe: dict[str, Any]) -> None:
+    """Warn when a seed's existing splits are about to be replaced by sets of other sizes."""
+    if recorded is None:
+        return
+    before, after = _sizes_text(recorded), _sizes_text(recipe)
+    if before != after:
+        warnings.warn(SplitsResized(f"{store}: seed {seed}: replacing its splits ({before}) with {after}; results "
+                                    f"computed on the old splits no longer match them"), stacklevel=4)
 
 
 def _check_request(store: Path, seeds: Sequence[int], sizes: SplitSizes, fixed: dict[str, np.ndarray]) -> None:

@@ -2,7 +2,8 @@
 
 * :mod:`synthcal.utils.atomic` — write a file under a temporary name, then rename it;
 * :mod:`synthcal.utils.dispatch` — run tasks here, on local processes or on a Dask
-  cluster, results as they complete.
+  cluster, results as they complete;
+* :mod:`synthcal.utils.progress` — progress bars only on a terminal.
 
 A leaf: imports nothing of synthcal.
 """

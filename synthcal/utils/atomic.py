@@ -64,6 +64,11 @@ def atomic_write(path: str | Path) -> Iterator[Path]:
         ``.<name>.<pid>-<random>.tmp`` beside ``path``, not yet created: the caller
         creates it (``write_bytes``, ``torch.save``, ...), so it gets the usual
         permissions (``0o666`` less the umask), as a file written in place would.
+
+    Raises:
+        OSError: the block's own, re-raised naming ``path`` when it named no file
+            (``write`` into a full disk raises ``[Errno 28]`` without a file name)
+            or the temporary.
     """
     path = Path(path)
     # pid and a random part: distinct for concurrent writers, processes or threads.
@@ -71,6 +76,11 @@ def atomic_write(path: str | Path) -> Iterator[Path]:
     try:
         yield tmp
         os.replace(tmp, path)
-    except BaseException:  # the caller's error, or the rename's: leave no temporary behind
+    except OSError as exc:  # leave no temporary behind; name the destination, not the temporary
+        tmp.unlink(missing_ok=True)
+        if exc.errno is not None and exc.filename in (None, str(tmp)):  # a full disk's write names no file
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
+        raise
+    except BaseException:  # the caller's error, Ctrl-C: leave no temporary behind
         tmp.unlink(missing_ok=True)
         raise

@@ -8,6 +8,14 @@ Local worker processes die with their parent: each sets, on Linux, a parent-deat
 signal (``prctl(PR_SET_PDEATHSIG, SIGKILL)``) as it starts, so a ``kill -9`` of the
 parent leaves no orphan rendering on (the resource tracker then sees its last
 user gone and exits too). Elsewhere a worker checks its parent at every task.
+
+Interrupting: local workers ignore SIGINT (a Ctrl-C reaches the whole process
+group), so the parent alone decides. When the parent stops consuming — Ctrl-C,
+a task's error, the consumer closing the generator — the workers are terminated
+at once and the tasks not yet started are cancelled, instead of the pool
+finishing them first. A Dask scheduler that does not answer within
+:data:`CONNECT_TIMEOUT` seconds is an error naming its address
+(:class:`SchedulerUnreachable`).
 """
 
 from __future__ import annotations
@@ -20,9 +28,16 @@ import signal
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from typing import TypeVar
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, TypeVar
 
-__all__ = ["dispatch", "die_with_parent"]
+if TYPE_CHECKING:
+    from dask.distributed import Client
+
+__all__ = ["CONNECT_TIMEOUT", "SchedulerUnreachable", "check_scheduler", "dispatch", "die_with_parent"]
+
+CONNECT_TIMEOUT = 5.0
+"""Seconds to wait for a Dask scheduler to answer (Dask's own default is 30)."""
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -44,11 +59,78 @@ def die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
+def _worker_start(parent: int) -> None:
+    """A local pool worker's initializer: die with the parent, leave Ctrl-C to it.
+
+    The worker started with SIGINT blocked (:func:`_sigint_blocked`); ignoring it
+    discards one that arrived meanwhile, then unblocking is safe.
+    """
+    die_with_parent(parent)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    if "fork" in multiprocessing.get_all_start_methods():
+        # Locks made here with the default context (numcodecs' Blosc makes one) are then
+        # anonymous semaphores, so a worker terminated mid-task leaves no named one for the
+        # resource tracker to report as leaked. Workers start no processes of their own.
+        multiprocessing.set_start_method("fork", force=True)
+
+
+@contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread meanwhile: processes started here inherit the mask, so a
+    Ctrl-C during their start-up cannot interrupt them; one sent to this process is held, not lost."""
+    if not hasattr(signal, "pthread_sigmask"):  # Windows: no signal masks
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _guarded(fn: Callable[[T], R], parent: int, task: T) -> R:
     """``fn(task)`` unless the parent is gone (a worker orphaned where no death signal exists)."""
     if os.getppid() != parent:
         os._exit(1)
     return fn(task)
+
+
+class SchedulerUnreachable(ConnectionError):
+    """No Dask scheduler answered at the given address in time (or the address is malformed)."""
+
+
+@contextmanager
+def _connect(address: str, timeout: float | None = None) -> Iterator[Client]:
+    """A Dask client of the scheduler at ``address``, closed on leaving (``timeout`` None: :data:`CONNECT_TIMEOUT`).
+
+    Raises:
+        SchedulerUnreachable: no answer within ``timeout`` seconds, or not an address.
+    """
+    from dask.distributed import Client
+
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    try:
+        client = Client(address, timeout=timeout)
+    except OSError as exc:  # Dask's connect timeout; a refused connection is retried until then
+        detail = "" if "Timed out" in str(exc) else f" ({exc})"
+        raise SchedulerUnreachable(f"Dask scheduler {address!r}: no answer within {timeout:g} s{detail}") from None
+    except ValueError as exc:
+        raise SchedulerUnreachable(f"Dask scheduler {address!r}: not a scheduler address ({exc})") from None
+    with client:
+        yield client
+
+
+def check_scheduler(address: str, timeout: float | None = None) -> None:
+    """Connect to the Dask scheduler at ``address`` and disconnect: call before writing anything
+    (``timeout`` None: :data:`CONNECT_TIMEOUT` seconds).
+
+    Raises:
+        SchedulerUnreachable: no answer within ``timeout`` seconds, or not an address.
+    """
+    with _connect(address, timeout):
+        pass
 
 
 def dispatch(fn: Callable[[T], R], tasks: Sequence[T], workers: int = 1, scheduler: str | None = None) -> Iterator[R]:
@@ -66,20 +148,51 @@ def dispatch(fn: Callable[[T], R], tasks: Sequence[T], workers: int = 1, schedul
         the results; an exception raised by a task is raised here when its result is reached.
     """
     if scheduler is not None:
-        from dask.distributed import Client
-        from dask.distributed import as_completed as dask_completed
-
-        with Client(scheduler) as client:
-            for future in dask_completed(client.map(fn, tasks, pure=False)):  # pure=False: never deduplicated
-                yield future.result()
+        yield from _on_cluster(fn, tasks, scheduler)
     elif workers <= 1:
         yield from map(fn, tasks)
     else:
-        # spawn, not fork: the parent may hold threads (OpenCV, torch, the progress bar)
-        # that a forked child would inherit mid-state; and it is what every OS has.
-        parent = os.getpid()
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                                 initializer=die_with_parent, initargs=(parent,)) as pool:
-            call = functools.partial(_guarded, fn, parent)
-            for future in as_completed([pool.submit(call, task) for task in tasks]):
+        yield from _on_processes(fn, tasks, workers)
+
+
+def _on_cluster(fn: Callable[[T], R], tasks: Sequence[T], scheduler: str) -> Iterator[R]:
+    """:func:`dispatch` on a Dask cluster; the tasks not yet finished are cancelled if we stop early."""
+    from dask.distributed import as_completed as dask_completed
+
+    with _connect(scheduler) as client:
+        futures = client.map(fn, tasks, pure=False)  # pure=False: never deduplicated
+        try:
+            for future in dask_completed(futures):
                 yield future.result()
+        except BaseException:
+            client.cancel(futures)
+            raise
+
+
+def _on_processes(fn: Callable[[T], R], tasks: Sequence[T], workers: int) -> Iterator[R]:
+    """:func:`dispatch` on local processes; stopping early terminates them (module docstring)."""
+    # spawn, not fork: the parent may hold threads (OpenCV, torch, the progress bar)
+    # that a forked child would inherit mid-state; and it is what every OS has.
+    parent = os.getpid()
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_worker_start, initargs=(parent,))
+    try:
+        call = functools.partial(_guarded, fn, parent)
+        with _sigint_blocked():  # the pool starts its workers as tasks are submitted
+            futures = [pool.submit(call, task) for task in tasks]
+        for future in as_completed(futures):
+            yield future.result()
+    except BaseException:  # Ctrl-C, a task's error, the consumer closing the generator
+        _terminate(pool)
+        raise
+    pool.shutdown()
+
+
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    """Stop a pool now: cancel its queued tasks and terminate its workers mid-task."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # Python ≥ 3.14: terminate_workers()
+    for process in processes:
+        process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.join(timeout=5)

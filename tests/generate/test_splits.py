@@ -9,7 +9,7 @@ import pytest
 from synthcal.cli import main, parse_seeds
 from synthcal.config import SplitSizes, load_config
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.splits import draw_indices, draw_mixed, draw_splits
+from synthcal.generate.splits import SplitsResized, draw_indices, draw_mixed, draw_splits
 from synthcal.store import open_store, read_samples
 from synthcal.store.splits import (
     SPLIT_NAMES,
@@ -75,7 +75,8 @@ def test_split_stream_is_independent_of_the_pool_seed_stream():
 def test_redraw_with_other_sizes_replaces_atomically(stores, tmp_path):
     store = tmp_path / "intersection-3.zarr"
     shutil.copytree(stores["intersection-3"], store)
-    result = draw_splits(store, seeds=[1], sizes=SplitSizes(train=30, test=6, dictionary=6))
+    with pytest.warns(SplitsResized, match=r"seed 1: replacing its splits \(train 24, test 8, dictionary 12\)"):
+        result = draw_splits(store, seeds=[1], sizes=SplitSizes(train=30, test=6, dictionary=6))
     assert result.drawn == (1,)
     assert len(read_split_indices(store, "train", 1)) == 30
     assert len(read_split_indices(store, "train", 0)) == 24  # other seeds untouched
@@ -142,7 +143,8 @@ def test_missing_source_store(stores, tmp_path):
                                          r"intersection-1.zarr: no synthcal store"):
         draw_splits(alone, mixed=True)
     # The default draws the own splits and says why the mixed dictionary is missing.
-    result = draw_splits(alone, seeds=[0])
+    with pytest.warns(SplitsResized, match="mixed dictionary 12\\) with train 24, test 8, dictionary 12;"):
+        result = draw_splits(alone, seeds=[0])
     assert "intersection-1.zarr" in result.note
     # A copy made with its mixed dictionary cannot resolve it without the sources.
     with pytest.raises(SplitError, match="mixed-dictionary source 'intersection-1'"):

@@ -13,7 +13,7 @@ from synthcal.data import load_split
 from synthcal.generate.camera import homography
 from synthcal.generate.pipeline import load_scene
 from synthcal.generate.scenes import soccer
-from synthcal.generate.splits import draw_splits
+from synthcal.generate.splits import SplitsResized, draw_splits
 from synthcal.generate.worldcup import (
     METRES_PER_YARD,
     bird_eye_to_pitch,
@@ -167,7 +167,8 @@ def test_paper_dictionary_is_the_whole_soccer_pool(stores, tmp_path):
     store = tmp_path / "worldcup2014.zarr"
     from synthcal.config import SplitSizes
 
-    draw_splits(store, seeds=[0], sizes=SplitSizes(train=209, test=186, dictionary=48))
+    with pytest.warns(SplitsResized, match="mixed dictionary 12\\) with .*mixed dictionary 48"):
+        draw_splits(store, seeds=[0], sizes=SplitSizes(train=209, test=186, dictionary=48))
     np.testing.assert_array_equal(load_split(store, "dictionary", 0).indices, np.arange(48))
     with pytest.raises(SplitError, match=r"worldcup2014.zarr: mixed dictionary of 49 templates.*soccer N = 48"):
         draw_splits(store, seeds=[0], sizes=SplitSizes(train=209, test=186, dictionary=49))

@@ -1,8 +1,9 @@
 """Sweeps of estimators over datasets and seeds, one folder per run (SPEC §8, §9).
 
 A *run* is (dataset, estimator, training, loss, matching, segmentation, seed,
-profile): fit on the seed's train split and dictionary, predict the test images,
-score every test image (:func:`synthcal.eval.metrics.evaluate`).
+profile, the profile's training settings and split sizes, device): fit on the
+seed's train split and dictionary, predict the test images, score every test
+image (:func:`synthcal.eval.metrics.evaluate`).
 
 Datasets
 --------
@@ -19,7 +20,20 @@ estimator also has ``predict_semantic``. Axes that do not apply collapse: an
 ``identity`` run is one run per (dataset, seed), its keys recorded as None.
 Constructors that take them also get ``settings`` (the profile's
 :class:`synthcal.config.TrainingSettings`), ``device``, ``cache_dir``
-(``RESULTS/cache``), ``seed`` (the split seed) and ``progress``.
+(``RESULTS/cache``), ``seed`` (the split seed) and ``progress``. ``device`` is
+resolved when the runs are expanded (``auto``: ``cuda`` where this process sees
+CUDA, else ``cpu``) and recorded only for estimators that take it.
+
+Split sizes
+-----------
+``limits`` (a profile's ``splits:``) caps what a run uses of the seed's stored
+splits: the first ``train`` / ``test`` / ``dictionary`` entries of each (the
+splits hold ascending pool indices of a pool drawn in random camera order, so a
+prefix is a random subset, the same one for every estimator and seed run). A
+mixed dictionary is cut round-robin over its sources, so that each source keeps
+an equal share. Train and test of a dataset of given poses (``worldcup2014``) are
+never cut: they are the poses' own partition. A split smaller than its cap is used
+whole. :func:`split_sizes` says what a run will use.
 Under ``segmentation: ground-truth`` the harness calls
 ``predict_semantic(true test maps)`` instead of ``predict(test images)``.
 
@@ -35,16 +49,27 @@ Results layout
     RESULTS/runs/<run-id>/run.json      the resolved run (everything that determines
                                         it, the store's path and config hash) and the
                                         outcome: status ok/failed, error, traceback,
+                                        sizes (samples of each split used), device,
                                         seconds (the run's process), fit_seconds,
                                         predict_seconds, the estimator's ``history``
                                         (per-epoch losses) if any, summary
     RESULTS/cache/<stage>/<key>.pt      shared trained stages (:mod:`.training`)
 
 ``run-id`` is ``<dataset>_<model>[_<training>_<loss>_<matching>_<segmentation>]_s<seed>_<hash>``,
-the hash over the resolved run (not the device: a run on a GPU and on a CPU is the
-same run). Both files are written atomically, ``run.json`` last: a run is finished
-when ``run.json`` exists, and a rerun skips it. CSV, not Parquet: pandas needs
-the optional pyarrow for Parquet, and the files are small.
+the hash over the whole resolved run but the store's path (its config hash
+stands for its content): every setting that changes the result is in it —
+the profile's training settings, the split sizes it caps (``limits``) and the
+device. The device is in it because a result depends on it: floating-point
+reductions differ between CPU and GPU kernels, so the trained weights differ,
+and a run asked of a device that cannot run it (``cuda`` without CUDA) fails;
+under the old identity, which left the device out, that failure was reused by a
+rerun on the CPU. The time limit, the progress bars and the scheduler are not in
+it: they decide whether a run ends, never what an ended run scores.
+Both files are written atomically, ``run.json`` last: a run is *finished* when
+its ``run.json`` is readable and says ``ok``, and a rerun skips it; a rerun runs
+every other one again, failed runs included (a fixed plug-in, a longer
+``timeout``, a device that works). CSV, not Parquet: pandas needs the optional
+pyarrow for Parquet, and the files are small.
 
 Isolation and failures
 ----------------------
@@ -64,10 +89,11 @@ by the stage (``load``, ``fit``, ``predict``): ``fit: ValueError: …``,
 ``predict: timed out after 5 s``, ``predict: killed by signal 11 (SIGSEGV)``,
 ``fit: exited with status 1``. A run whose estimates are all invalid is failed
 too, with the commonest reason (``all 8 estimates invalid: non-finite entries``).
-The sweep goes on; a failed run is finished (delete
-its folder to run it again). ``KeyboardInterrupt`` in the sweep's process (Ctrl-C)
-kills the running run's process and stops the sweep: finished runs stay, and the
-next invocation resumes with the others. Errors in the data (a missing store or
+The sweep goes on; a failed run is recorded, and the next sweep
+over it runs it again. ``KeyboardInterrupt`` in the sweep's process (Ctrl-C)
+kills the running run's process (and what it started) and is raised again from
+:func:`run_sweep`: finished runs stay, and the next invocation resumes with the
+others. Errors in the data (a missing store or
 split) stop the sweep: before anything runs where :func:`expand_runs` can see them,
 else at the run that meets them. A damaged ``run.json`` (empty, truncated) is
 skipped with a :class:`DamagedRecordWarning` naming it, and its run is done again.
@@ -109,7 +135,7 @@ from synthcal.data import SplitDataset, StoreScene, load_split, read_scene
 from synthcal.estimators import SemanticEstimator, load_estimator, resolve_estimator
 from synthcal.eval.metrics import METRICS, evaluate, summarize
 from synthcal.store import StoreError, attributes, open_store
-from synthcal.store.splits import SplitError, drawn_seeds
+from synthcal.store.splits import SplitError, drawn_seeds, read_mixed_dictionary, read_split_indices, store_spec
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent, dispatch
 
@@ -118,12 +144,18 @@ __all__ = [
     "Run",
     "dataset_store",
     "estimator_label",
+    "resolve_device",
+    "check_device",
     "expand_runs",
+    "split_sizes",
+    "plan_lines",
+    "prefix_positions",
     "execute_run",
     "DEFAULT_TIMEOUT",
     "DamagedRecordWarning",
     "run_sweep",
     "collect_results",
+    "training_budget",
     "table_runs",
 ]
 
@@ -131,6 +163,8 @@ __all__ = [
 AXES = ("training", "loss", "matching", "segmentation")
 # Run fields that do not change the result, left out of the run's hash.
 _NOT_HASHED = ("store",)
+# Run fields added after the first results were recorded: left out of the hash while None.
+_HASHED_WHEN_SET = ("device", "limits")
 _H_COLUMNS = [f"h{r}{c}" for r in range(3) for c in range(3)]
 
 
@@ -149,6 +183,10 @@ class Run:
         profile: the training profile's name (None: defaults).
         training, loss, matching, segmentation: axes, None where they do not apply.
         settings: the profile's training settings (only for estimators taking them).
+        device: torch device name, resolved (``cpu``, ``cuda``; only for estimators
+            taking one, else None).
+        limits: the most ``train`` / ``test`` / ``dictionary`` samples used of the
+            stored splits (module docstring, "Split sizes"); None: all.
     """
 
     dataset: str
@@ -164,11 +202,15 @@ class Run:
     matching: Matching | None = None
     segmentation: Segmentation | None = None
     settings: dict[str, Any] | None = field(default=None, hash=False)
+    device: str | None = None
+    limits: dict[str, int] | None = field(default=None, hash=False)
 
     @property
     def id(self) -> str:
         """Folder name: readable keys, then a hash of the whole run."""
-        record = {k: v for k, v in asdict(self).items() if k not in _NOT_HASHED}
+        # Fields added later hash only when set, so that the runs they do not concern keep their ids.
+        record = {k: v for k, v in asdict(self).items()
+                  if k not in _NOT_HASHED and not (k in _HASHED_WHEN_SET and v is None)}
         h = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:10]
         keys = [self.dataset, self.model, *[getattr(self, a) for a in AXES if getattr(self, a)], f"s{self.seed}", h]
         return "_".join(k.replace("/", "-").replace(":", "-") for k in keys)
@@ -201,6 +243,41 @@ def estimator_label(name: str, cls: Any) -> str:
     return name.rpartition(":")[2].rpartition(".")[2] if ":" in name else name
 
 
+def resolve_device(name: str) -> str:
+    """The device a run gets: ``auto`` → ``cuda`` where this process sees CUDA, else ``cpu``; others as given."""
+    if name != "auto":
+        return name
+    import torch
+
+    return "cuda" if torch.cuda.is_available() else "cpu"
+
+
+def check_device(name: str) -> None:
+    """Refuse a device name torch does not know, or CUDA where there is none.
+
+    Raises:
+        ValueError: naming the device and why.
+    """
+    import torch
+
+    try:
+        device = torch.device(resolve_device(name))
+    except RuntimeError as error:
+        raise ValueError(f"--device: not a torch device: {error} (value {name!r})") from None
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"--device: CUDA is not available on this machine (value {name!r}); "
+                         f"use --device cpu or auto")
+
+
+def _store_limits(store: Path, group: Any, limits: dict[str, int] | None) -> dict[str, int] | None:
+    """The caps that apply to a store: all of them, but not train/test of a dataset of given poses."""
+    if not limits:
+        return None
+    if store_spec(group, store).poses is not None:
+        limits = {k: v for k, v in limits.items() if k not in ("train", "test")}
+    return dict(sorted(limits.items())) or None
+
+
 def expand_runs(
     data_dir: str | Path,
     datasets: Sequence[str],
@@ -212,11 +289,19 @@ def expand_runs(
     losses: Sequence[Loss] = ("top-mse",),
     matchings: Sequence[Matching] = ("top-mse",),
     segmentations: Sequence[Segmentation] = ("unet",),
+    device: str = "auto",
+    limits: dict[str, int] | None = None,
 ) -> list[Run]:
     """The sweep grid, with axes collapsed where they do not apply.
 
     Checks every store and seed first, so that a typo stops the sweep before any
     training.
+
+    Args:
+        device: torch device name (``auto`` resolved here, :func:`resolve_device`).
+        limits: a profile's split sizes, capping the stored splits (module
+            docstring, "Split sizes"); None: the splits as stored.
+        others: the sweep's values (module docstring).
 
     Raises:
         SplitError: a missing store, or a seed whose splits are not drawn.
@@ -224,6 +309,8 @@ def expand_runs(
     """
     values: dict[str, Sequence[str]] = {"training": trainings, "loss": losses, "matching": matchings,
                                         "segmentation": segmentations}
+    shared: dict[str, Any] = {"seeds": seeds, "profile": profile, "settings": settings,
+                              "device": resolve_device(device)}
     runs: dict[str, Run] = {}
     for label in datasets:
         store, mixed = dataset_store(data_dir, label)
@@ -232,19 +319,125 @@ def expand_runs(
         group = open_store(store)
         missing = sorted(set(seeds) - set(drawn_seeds(group)))
         if missing:
-            raise SplitError(f"{store}: splits not drawn for seed(s) {missing}; run `synthcal split {store}`")
+            raise SplitError(f"{store}: splits not drawn for seed(s) {', '.join(map(str, missing))}; run "
+                             f"`synthcal split {store} --seeds {','.join(map(str, missing))}`")
+        base = {"dataset": label, "store": str(store), "mixed": mixed, "store_hash": str(group.attrs["config_hash"]),
+                "limits": _store_limits(store, group, limits)}
         for name in estimators:
-            cls = resolve_estimator(name)
-            params = _parameters(cls)
-            applies = {a: (hasattr(cls, "predict_semantic") if a == "segmentation" else a in params) for a in AXES}
-            grid: list[Sequence[str | None]] = [values[a] if applies[a] else [None] for a in AXES]
-            for seed, combo in itertools.product(seeds, itertools.product(*grid)):
-                axes: dict[str, Any] = dict(zip(AXES, combo, strict=True))
-                run = Run(dataset=label, store=str(store), mixed=mixed, store_hash=str(group.attrs["config_hash"]),
-                          estimator=name, model=estimator_label(name, cls), seed=int(seed), profile=profile,
-                          settings=settings if "settings" in params else None, **axes)
+            for run in _estimator_runs(name, base, values, **shared):
                 runs.setdefault(run.id, run)
     return list(runs.values())
+
+
+def _estimator_runs(name: str, base: dict[str, Any], values: dict[str, Sequence[str]], seeds: Sequence[int],
+                    profile: str | None, settings: dict[str, Any] | None, device: str) -> list[Run]:
+    """One estimator's runs on one dataset: its applicable axes × seeds."""
+    cls = resolve_estimator(name)
+    params = _parameters(cls)
+    applies = {a: (hasattr(cls, "predict_semantic") if a == "segmentation" else a in params) for a in AXES}
+    grid: list[Sequence[str | None]] = [values[a] if applies[a] else [None] for a in AXES]
+    runs = []
+    for seed, combo in itertools.product(seeds, itertools.product(*grid)):
+        axes: dict[str, Any] = dict(zip(AXES, combo, strict=True))
+        runs.append(Run(**base, estimator=name, model=estimator_label(name, cls), seed=int(seed), profile=profile,
+                        settings=settings if "settings" in params else None,
+                        device=device if "device" in params else None, **axes))
+    return runs
+
+
+def prefix_positions(n: int, cap: int | None, source: np.ndarray | None = None) -> np.ndarray:
+    """Positions kept of a split of ``n`` entries under a cap (module docstring, "Split sizes").
+
+    Args:
+        n: the split's length.
+        cap: the most entries kept (None: all).
+        source: a mixed dictionary's (n,) source of each entry: kept round-robin
+            over the sources, first entries of each first.
+
+    Returns:
+        Ascending positions, ``min(n, cap)`` of them.
+
+    >>> prefix_positions(5, 3).tolist()
+    [0, 1, 2]
+    >>> prefix_positions(6, 3, np.array([0, 0, 0, 1, 1, 1])).tolist()
+    [0, 1, 3]
+    """
+    if cap is None or cap >= n:
+        return np.arange(n)
+    if source is None:
+        return np.arange(cap)
+    source = np.asarray(source)
+    rank = np.empty(n, np.int64)
+    for value in np.unique(source):
+        where = np.flatnonzero(source == value)
+        rank[where] = np.arange(len(where))
+    order = np.lexsort((source, rank))  # by rank within its source, then by source
+    return np.sort(order[:cap])
+
+
+def _mixed_dictionary(run: Run) -> bool:
+    """Whether the run's dictionary is a mixed one (as :func:`synthcal.data.load_split` decides)."""
+    if run.mixed is not None:
+        return run.mixed
+    return not store_spec(open_store(run.store), Path(run.store)).own_dictionary
+
+
+def split_sizes(run: Run) -> dict[str, tuple[int, int]]:
+    """What the run uses of each split: ``{split: (used, stored)}``, from the indices alone.
+
+    Raises:
+        SplitError: a split or mixed dictionary that is not drawn.
+    """
+    sizes = {}
+    for split in ("train", "test", "dictionary"):
+        if split == "dictionary" and _mixed_dictionary(run):
+            stored = len(read_mixed_dictionary(run.store, run.seed).index)
+        else:
+            stored = len(read_split_indices(run.store, split, run.seed))
+        cap = (run.limits or {}).get(split)
+        sizes[split] = (stored if cap is None else min(cap, stored), stored)
+    return sizes
+
+
+def _span(values: Iterable[int]) -> str:
+    """``128`` or ``120–128`` (several seeds with different sizes)."""
+    values = sorted(set(values))
+    return f"{values[0]:,}" if len(values) == 1 else f"{values[0]:,}–{values[-1]:,}"
+
+
+def plan_lines(runs: Sequence[Run]) -> list[str]:
+    """What a sweep will train and test on, for the console before it starts.
+
+    One line per dataset (the samples of each split used, of those stored, over
+    the runs' seeds; what the bundled models train on under ``max_train``), then
+    one per training kind of the bundled models (:func:`training_budget`).
+
+    Raises:
+        SplitError: a split that is not drawn.
+    """
+    datasets: dict[str, dict[int, dict[str, tuple[int, int]]]] = {}
+    for run in runs:
+        seeds = datasets.setdefault(run.dataset, {})
+        if run.seed not in seeds:
+            seeds[run.seed] = split_sizes(run)
+    settings = next((run.settings for run in runs if run.settings), None)
+    cap = (settings or {}).get("max_train")
+    lines = []
+    for dataset, seeds in datasets.items():
+        parts = [f"{split} {_span(s[split][0] for s in seeds.values())} "
+                 f"of {_span(s[split][1] for s in seeds.values())}" for split in ("train", "test", "dictionary")]
+        line = f"  {dataset} (seeds {', '.join(map(str, seeds))}): {', '.join(parts)}"
+        if settings is not None:
+            used = (min(s["train"][0], cap) if cap else s["train"][0] for s in seeds.values())
+            line += f"; the bundled models train on {_span(used)}" + (f" (max_train {cap:,})" if cap else "")
+        lines.append(line)
+    kinds = dict.fromkeys((run.training, run.segmentation) for run in runs if run.settings is not None)
+    for training, segmentation in kinds:
+        budget = training_budget({"run": {"training": training, "segmentation": segmentation, "settings": settings}})
+        if budget:
+            batch = (settings or {}).get("batch_size")
+            lines.append(f"  training ({segmentation or 'no'} segmentation): {budget}; batch {batch}")
+    return lines
 
 
 # --- one run -----------------------------------------------------------------------------
@@ -295,16 +488,23 @@ def read_record(path: Path, consequence: str = "skipped") -> dict[str, Any] | No
 
 
 def is_finished(results: str | Path, run: Run) -> bool:
-    """Whether the run has a readable ``run.json`` (a damaged one is run again)."""
+    """Whether the run has a readable ``run.json`` that says ``ok``.
+
+    A failed run is not finished: the next sweep runs it again. A damaged record
+    is run again too, with a :class:`DamagedRecordWarning`.
+    """
     path = run_folder(results, run) / "run.json"
-    return path.is_file() and read_record(path, "ignored; the run is done again") is not None
+    if not path.is_file():
+        return False
+    record = read_record(path, "ignored; the run is done again")
+    return record is not None and record["status"] == "ok"
 
 
-def _options(run: Run, cls: Any, results: Path, device: str, progress: bool) -> dict[str, Any]:
+def _options(run: Run, cls: Any, results: Path, progress: bool) -> dict[str, Any]:
     """Constructor keywords for the run: its axes and the services the class accepts."""
     params = _parameters(cls)
     offered = {a: getattr(run, a) for a in AXES if getattr(run, a) is not None}
-    offered.update(settings=run.settings, device=device, cache_dir=str(results / "cache"), seed=run.seed,
+    offered.update(settings=run.settings, device=run.device, cache_dir=str(results / "cache"), seed=run.seed,
                    progress=progress)
     return {k: v for k, v in offered.items() if k in params and v is not None}
 
@@ -333,6 +533,21 @@ def _read_only_split(split: SplitDataset, scene: StoreScene) -> SplitDataset:
             setattr(split, name, _read_only(value))
     split.scene = scene
     return split
+
+
+def _load_split(run: Run, split: str, scene: StoreScene) -> SplitDataset:
+    """One split of the run as it uses it: capped by ``run.limits`` (:func:`prefix_positions`).
+
+    Raises:
+        StoreError: the store or split cannot be read.
+    """
+    data = load_split(run.store, split, run.seed, run.mixed if split == "dictionary" else False, scene)
+    keep = prefix_positions(len(data), (run.limits or {}).get(split), data.source)
+    if len(keep) == len(data):
+        return data
+    arrays = {"image": data.images[keep], "semantic": data.semantics[keep], "homography": data.homographies[keep]}
+    return SplitDataset(arrays, np.asarray(data.indices)[keep], data.store, data.split, data.seed, data.scene,
+                        data.sources, None if data.source is None else data.source[keep], data.source_stores)
 
 
 def _plain_estimates(estimates: Any, n: int) -> Any:
@@ -366,29 +581,29 @@ def _plain_estimates(estimates: Any, n: int) -> Any:
     return _NOT_NUMERIC
 
 
-def _estimate(run: Run, results: Path, device: str, progress: bool, stage: Callable[[str], None]) -> dict[str, Any]:
+def _estimate(run: Run, results: Path, progress: bool, stage: Callable[[str], None]) -> dict[str, Any]:
     """Load the run's data read-only, fit and predict; the outcome as JSON-ready data.
 
     Returns:
         dict with ``estimates`` (:func:`_plain_estimates`, None on failure), ``error``
         (``""`` or ``"<stage>: <exception>"``), ``data_error`` (a store or split that
-        cannot be read: the sweep stops), ``fit_seconds``, ``predict_seconds``,
-        ``history``, ``traceback`` where they apply.
+        cannot be read: the sweep stops), ``sizes`` (samples of each split used),
+        ``fit_seconds``, ``predict_seconds``, ``history``, ``traceback`` where they apply.
     """
     outcome: dict[str, Any] = {"estimates": None, "error": ""}
     name = "load"
     stage(name)
     try:
         scene = _read_only_scene(read_scene(run.store))
-        splits = {split: _read_only_split(load_split(run.store, split, run.seed,
-                                                     run.mixed if split == "dictionary" else False, scene), scene)
+        splits = {split: _read_only_split(_load_split(run, split, scene), scene)
                   for split in ("train", "test", "dictionary")}
+        outcome["sizes"] = {split: len(data) for split, data in splits.items()}
     except StoreError as error:  # the data, not the estimator: stops the sweep (module docstring)
         outcome["data_error"] = str(error)
         return outcome
     try:
         cls = resolve_estimator(run.estimator)
-        estimator = load_estimator(run.estimator, **_options(run, cls, results, device, progress))
+        estimator = load_estimator(run.estimator, **_options(run, cls, results, progress))
         name, started = "fit", time.perf_counter()
         stage(name)
         train = splits["train"]
@@ -432,7 +647,7 @@ def _run_child(exchange: str) -> None:
         (folder / "stage").write_text(name, encoding="utf-8")
 
     run = Run(**request["run"])
-    outcome = _estimate(run, Path(request["results"]), request["device"], request["progress"], stage)
+    outcome = _estimate(run, Path(request["results"]), request["progress"], stage)
     _write_atomic(folder / "result.json", json.dumps(outcome))
     # Skip the interpreter's teardown: threads or atexit hooks a plug-in left behind
     # must not hang or crash a run whose result is already written.
@@ -484,15 +699,14 @@ def _signal_name(number: int) -> str:
         return "unnamed"
 
 
-def _estimate_isolated(run: Run, results: Path, device: str, progress: bool,
-                       timeout: float | None) -> dict[str, Any]:
+def _estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | None) -> dict[str, Any]:
     """:func:`_estimate` in a process of its own, under the time limit (module docstring)."""
     # Beside the results, not in /tmp: a temp-folder cleaner cannot pull it from under a
     # running child, and a folder left by a kill -9 stays where the user looks.
     exchange = Path(tempfile.mkdtemp(prefix=".exchange-", dir=results))
     try:
-        request = {"run": asdict(run), "results": str(results), "device": device, "progress": progress,
-                   "sys_path": sys.path, "parent": os.getpid()}
+        request = {"run": asdict(run), "results": str(results), "progress": progress, "sys_path": sys.path,
+                   "parent": os.getpid()}
         (exchange / "request.json").write_text(json.dumps(request), encoding="utf-8")
         command = [sys.executable, "-c",
                    "import sys; from synthcal.eval.harness import _run_child; _run_child(sys.argv[1])",
@@ -524,14 +738,22 @@ def _estimate_isolated(run: Run, results: Path, device: str, progress: bool,
         shutil.rmtree(exchange, ignore_errors=True)
 
 
-def execute_run(run: Run, results: str | Path, device: str = "auto", progress: bool = False,
+def with_device(run: Run, device: str | None) -> Run:
+    """The run on another device (a different run: its id changes); unchanged for None or
+    an estimator that takes no device."""
+    if device is None or run.device is None:
+        return run
+    return dataclasses.replace(run, device=resolve_device(device))
+
+
+def execute_run(run: Run, results: str | Path, device: str | None = None, progress: bool = False,
                 timeout: float | None = DEFAULT_TIMEOUT) -> Path:
-    """Evaluate one run unless it is finished; returns its folder (module docstring).
+    """Evaluate one run unless it is finished (ok); returns its folder (module docstring).
 
     Args:
         run: from :func:`expand_runs`.
         results: the results folder.
-        device: torch device name for estimators that take one.
+        device: replaces the run's device (:func:`with_device`); None: the run's own.
         progress: the estimator's own progress bars.
         timeout: seconds the run's process may take (start-up not counted); None or 0: no limit.
 
@@ -540,14 +762,15 @@ def execute_run(run: Run, results: str | Path, device: str = "auto", progress: b
         OSError: the results cannot be written (names the file).
     """
     results = Path(results)
+    run = with_device(run, device)
     folder = run_folder(results, run)
     if is_finished(results, run):
         return folder
     # Scoring reads its own copy of the scene and the test split, loaded here: the
     # estimator, in its own process, cannot reach it.
     scene = read_scene(run.store)
-    test = load_split(run.store, "test", run.seed, False, scene)
-    outcome = _estimate_isolated(run, results, device, progress, timeout)
+    test = _load_split(run, "test", scene)
+    outcome = _estimate_isolated(run, results, progress, timeout)
     if "data_error" in outcome:
         raise StoreError(outcome["data_error"])
     estimates, failure = outcome.pop("estimates"), outcome.pop("error")
@@ -565,7 +788,7 @@ def execute_run(run: Run, results: str | Path, device: str = "auto", progress: b
     folder.mkdir(parents=True, exist_ok=True)
     _write_atomic(folder / "metrics.csv", frame.to_csv(index=False))
     record = {"run": asdict(run), "id": run.id, "status": "failed" if failure else "ok", "error": failure,
-              "device": device, **outcome, "summary": summarize(frame)}
+              "device": run.device, **outcome, "summary": summarize(frame)}
     _write_atomic(folder / "run.json", json.dumps(record, indent=2, default=str))
     return folder
 
@@ -590,33 +813,41 @@ def _estimate_columns(estimates: Any, n: int) -> np.ndarray:
 # --- sweeps ------------------------------------------------------------------------------
 
 
-def run_sweep(runs: Sequence[Run], results: str | Path, device: str = "auto", scheduler: str | None = None,
+def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = None, scheduler: str | None = None,
               progress: bool = True, timeout: float | None = DEFAULT_TIMEOUT) -> pd.DataFrame:
-    """Execute every unfinished run (locally, or on a Dask cluster); return all results.
+    """Execute every run not finished ok (locally, or on a Dask cluster); return all results.
 
     Args:
         runs: from :func:`expand_runs`.
         results: the results folder.
-        device: torch device name for estimators that take one.
+        device: replaces the runs' device (:func:`with_device`: other runs, other
+            ids); None: each run's own.
         scheduler: a Dask scheduler address, or None to run here, one after another.
         progress: progress bars (runs; epochs inside the bundled models).
         timeout: seconds each run's process may take; None or 0: no limit.
 
     Returns:
         :func:`collect_results` of the folder.
+
+    Raises:
+        KeyboardInterrupt: Ctrl-C; the running run's process is killed first, the
+            finished runs stay and a rerun resumes with the others.
     """
     results = Path(results)
+    runs = [with_device(run, device) for run in runs]
     # Now, not after the first run: a results folder that cannot be written stops the sweep at once.
     (results / "runs").mkdir(parents=True, exist_ok=True)
     todo = [run for run in runs if not is_finished(results, run)]
     bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="runs", unit="run", disable=not progress)
     # Here: one run after another, with the estimators' own progress bars; on a cluster: none.
-    execute = functools.partial(execute_run, results=str(results), device=device,
-                                progress=progress and scheduler is None, timeout=timeout)
-    for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
-        bar.set_postfix_str(folder.name)
-        bar.update()
-    bar.close()
+    execute = functools.partial(execute_run, results=str(results), progress=progress and scheduler is None,
+                                timeout=timeout)
+    try:
+        for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
+            bar.set_postfix_str(folder.name)
+            bar.update()
+    finally:  # on Ctrl-C too: the bar's line ends before whatever is printed next
+        bar.close()
     return collect_results(results)
 
 
@@ -633,7 +864,8 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
         metrics ``iou``, ``iou_bg``, ``iou_weighted``, ``iou_part``, ``iou_whole``
         (means over scored test images, failures as 0; NaN for a metric the run's
         record predates), ``completeness``, ``n_images``, ``n_skipped``, ``status``, ``error`` (``""`` for a run
-        that is ok), ``run_id``. A damaged ``run.json`` is skipped with a
+        that is ok), ``run_id``, ``device`` and ``budget`` (:func:`training_budget`;
+        None for estimators that do not train). A damaged ``run.json`` is skipped with a
         :class:`DamagedRecordWarning` naming it.
     """
     folder = Path(results) / "runs"
@@ -657,11 +889,48 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
         except KeyError as error:
             warnings.warn(f"{path}: damaged run record skipped (no {error})", DamagedRecordWarning, stacklevel=2)
             continue
-        row.update(status=record["status"], error=record.get("error") or "", run_id=record["id"])
+        row.update(status=record["status"], error=record.get("error") or "", run_id=record["id"],
+                   device=run.get("device"), budget=training_budget(record))
         rows.append(row)
     columns = ["dataset", "model", "training", "loss", "matching_score", "segmentation", "profile", "seed",
-               "estimator", *METRICS, "completeness", "n_images", "n_skipped", "status", "error", "run_id"]
+               "estimator", *METRICS, "completeness", "n_images", "n_skipped", "status", "error", "run_id",
+               "device", "budget"]
     return pd.DataFrame(rows, columns=columns)
+
+
+def training_budget(record: dict[str, Any]) -> str | None:
+    """What a run of a bundled model was trained with, in words (None: no training settings).
+
+    From the record's resolved settings: the epochs of the stages its training
+    trains (the UNet's only under ``segmentation: unet``), the train images used
+    (``max_train`` of the split's size, where the record has it), the working
+    resolution and, where the settings carry them, ``stn_template`` and
+    ``class_reduction``.
+
+    >>> training_budget({"run": {"training": "end-to-end", "segmentation": "unet",
+    ...                          "settings": {"end_to_end_epochs": 24, "work_size": [128, 72]}}})
+    'end-to-end 24 epochs; at 128 × 72'
+    """
+    run = record.get("run", {})
+    settings = run.get("settings")
+    if not isinstance(settings, dict) or run.get("training") is None:
+        return None
+    if run["training"] == "end-to-end":
+        parts = [f"end-to-end {settings.get('end_to_end_epochs')} epochs"]
+    else:
+        stages = ([("UNet", "unet_epochs")] if run.get("segmentation") == "unet" else []) + \
+                 [("Siamese", "siamese_epochs"), ("STN", "stn_epochs")]
+        parts = ["step-by-step " + ", ".join(f"{name} {settings.get(key)}" for name, key in stages) + " epochs"]
+    train = (record.get("sizes") or {}).get("train")
+    cap = settings.get("max_train")
+    if train is not None:
+        parts.append(f"{min(train, cap) if cap else train} train images")
+    if settings.get("work_size"):
+        width, height = settings["work_size"]
+        parts.append(f"at {width} × {height}")
+    parts += [f"{key.replace('_', ' ')} {settings[key]}" for key in ("stn_template", "class_reduction")
+              if settings.get(key) is not None]
+    return "; ".join(parts)
 
 
 def table_runs(frame: pd.DataFrame, keys: Sequence[str] = ("training", "loss", "matching_score")) -> pd.DataFrame:

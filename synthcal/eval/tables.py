@@ -21,10 +21,16 @@ column             needed  meaning
                            [0, 1] (failures counted as 0); pick it with ``value``
 ``completeness``   no      share of the run's test images with a valid estimate
                            (a fraction; shown "–" where missing)
+``profile``        no      the profile the run was trained under (caption)
+``segmentation``   no      ``unet`` or ``ground-truth`` (caption)
+``budget``         no      the run's training budget in words
+                           (:func:`synthcal.eval.harness.training_budget`; caption)
 =================  ======  ==========================================================
 
 A missing optional column, or a missing value (estimators without training or
-loss), is shown as "–". Two rows with the same keys and seed are an error.
+loss), is shown as "–"; a key that is missing in every run of a table (a table of
+estimators that do not train has no training, loss or matching score) is left out
+of it, caption included. Two rows with the same keys and seed are an error.
 
 Layouts (the paper's ``table`` values in ``paper_iou.csv``)
 -----------------------------------------------------------
@@ -48,11 +54,23 @@ standard deviation (``ddof = 1``): the five seeds are five draws of the split,
 and the spread of *those draws* is what a reader compares against; a single
 seed shows the mean alone. The highest mean of a row (compared as displayed,
 so ties share it) is bold — Markdown ``**…**``, LaTeX ``\\textbf{…}`` — when the
-row has at least two values. ``compare_paper=True`` adds the published figure
+row has at least two values and the highest is above 0 (a row of zeros, every run
+failed, has no best). ``compare_paper=True`` adds the published figure
 beside each column ("paper"), joined on every key; the paper's IoU is undefined
 beyond its prose, so the comparison is offered for each of its three readings
 (``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8), and the caption names the
-reading shown.
+reading shown. The caption also says under what our figures were obtained —
+profile, segmentation (a UNet's or the true maps) and training budget, from the
+optional columns — and, with ``compare_paper``, that the paper's come from a UNet's
+segmentation and its own full training.
+
+Paired differences
+------------------
+:func:`paired_frame` / :func:`format_paired`: two models (or two values of another
+key) trained on the same split of the same seed with the same settings are a
+pair; per cell, the mean of the per-seed differences A − B in points, its
+standard deviation (ddof = 1), the seeds where A > B, and the paper's A − B for
+the same cell.
 
 Example
 -------
@@ -83,9 +101,14 @@ import pandas as pd
 from synthcal.eval.metrics import DESCRIPTIONS, READINGS
 
 __all__ = ["KEYS", "MISSING", "Layout", "LAYOUTS", "paper_results", "aggregate", "table_frame", "format_table",
-           "failed_runs"]
+           "failed_runs", "PAIR_KEYS", "paired_frame", "format_paired"]
 
 KEYS = ("dataset", "model", "training", "loss", "matching_score")
+# Keys that must agree for two runs to be a pair (besides the seed): the table keys and
+# what a run was obtained under.
+PAIR_KEYS = (*KEYS, "segmentation", "profile")
+# The caption's words for a segmentation value.
+SEGMENTATION_WORDS = {"unet": "a UNet's segmentation", "ground-truth": "the true semantic maps (ground-truth)"}
 REQUIRED = ("dataset", "model", "seed")
 MISSING = "–"
 FORMATS = ("md", "latex", "csv")
@@ -124,12 +147,14 @@ def paper_results() -> pd.DataFrame:
         return pd.read_csv(f)
 
 
-def _validate(results: pd.DataFrame, value: str) -> pd.DataFrame:
+def _validate(results: pd.DataFrame, value: str, keys: tuple[str, ...] = KEYS) -> pd.DataFrame:
+    """The results with every key present (missing values as "–", as text), the value and completeness
+    as numbers; one run per keys and seed."""
     missing = [c for c in (*REQUIRED, value) if c not in results.columns]
     if missing:
         raise ValueError(f"results lack column(s) {missing}; have {list(results.columns)}")
     frame = results.copy()
-    for key in KEYS:
+    for key in keys:
         frame[key] = frame[key].astype(object).where(frame[key].notna(), MISSING) if key in frame else MISSING
         frame[key] = frame[key].astype(str)
     values = pd.to_numeric(frame[value], errors="raise")
@@ -138,9 +163,9 @@ def _validate(results: pd.DataFrame, value: str) -> pd.DataFrame:
     frame[value] = values
     frame["completeness"] = (pd.to_numeric(frame["completeness"], errors="raise") if "completeness" in frame
                              else np.nan)
-    duplicated = frame.duplicated([*KEYS, "seed"], keep=False)
+    duplicated = frame.duplicated([*keys, "seed"], keep=False)
     if duplicated.any():
-        raise ValueError(f"several results for the same keys and seed:\n{frame.loc[duplicated, [*KEYS, 'seed']]}")
+        raise ValueError(f"several results for the same keys and seed:\n{frame.loc[duplicated, [*keys, 'seed']]}")
     return frame
 
 
@@ -169,7 +194,7 @@ def _order(values: pd.Series, key: str, layout: str) -> list[str]:
     """Distinct values in the paper's order (this layout's table first), then the others sorted, "–" last."""
     paper = paper_results()
     paper = pd.concat([paper[paper["table"] == layout], paper[paper["table"] != layout]])
-    paper = list(dict.fromkeys(paper[key].astype(str)))
+    paper = list(dict.fromkeys(paper[key].astype(str))) if key in paper else []  # segmentation, profile: none
     present = set(values)
     known = [v for v in paper if v in present]
     rest = sorted(present - set(known) - {MISSING})
@@ -247,8 +272,23 @@ def table_frame(
         table = _with_paper(table, varying, spec.columns, constants, aliases or {})
     table.columns.names = [spec.columns, "field"]
     table.attrs.update(constants=constants, layout=layout, n_seeds=sorted(cells["n_seeds"].unique().tolist()),
-                       value=value)
+                       value=value, conditions=_conditions(results, spec.mixed))
     return table
+
+
+def _distinct(results: pd.DataFrame, column: str) -> list[str]:
+    """The column's distinct present values in order of appearance (none if there is no such column)."""
+    if column not in results:
+        return []
+    return [str(v) for v in dict.fromkeys(results[column].dropna())]
+
+
+def _conditions(results: pd.DataFrame, mixed: bool) -> dict[str, list[str]]:
+    """Profile, segmentation and training budget of the runs a layout shows (caption)."""
+    if "dataset" in results:
+        results = results[results["dataset"].astype(str).str.startswith("mixed-") == mixed]
+    return {"profile": _distinct(results, "profile"), "segmentation": _distinct(results, "segmentation"),
+            "budget": _distinct(results, "budget")}
 
 
 # --- text ------------------------------------------------------------------------------
@@ -263,7 +303,8 @@ def _cell(mean: float, std: float, n: float) -> str:
 def _latex_escape(text: str) -> str:
     replacements = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
                     "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
-                    "±": r"$\pm$", "–": "--"}
+                    "±": r"$\pm$", "–": "--", "—": "---", "−": "$-$", "×": r"$\times$",
+                    ">": "$>$", "<": "$<$"}
     return "".join(replacements.get(ch, ch) for ch in text)
 
 
@@ -280,7 +321,8 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
         shown = [k if previous is None or key[: i + 1] != previous[: i + 1] else "" for i, k in enumerate(key)]
         previous = key
         means = np.array([round(row[(v, "mean")], 2) for v in column_values], dtype=float)
-        best = np.nanmax(means) if np.isfinite(means).sum() >= 2 else np.nan
+        # Nothing to single out in a row of one value, or of zeros (every run failed).
+        best = np.nanmax(means) if np.isfinite(means).sum() >= 2 and np.nanmax(means) > 0 else np.nan
         cells, flags = list(shown), [False] * len(shown)
         for value, mean in zip(column_values, means, strict=True):
             cells.append(_cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")]))
@@ -305,10 +347,27 @@ def _caption(table: pd.DataFrame) -> str:
     reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
     text = (f"{value} (%){reading}; by {columns}, mean ± std over {n} seeds (std with ddof = 1); best per row in "
             f"bold; complete %: share of test images with a valid estimate, mean over seeds.")
-    constants = table.attrs.get("constants", {})
+    # A key missing in every run (estimators that do not train have no loss) says nothing: left out.
+    constants = {k: v for k, v in table.attrs.get("constants", {}).items() if v != MISSING}
     if constants:
         text += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."
+    text += _conditions_text(table.attrs.get("conditions", {}))
+    if "paper" in table.columns.get_level_values(-1):
+        text += (" Paper: the published figure, from a UNet's segmentation and the paper's own full training"
+                 " (SPEC §7).")
     return text
+
+
+def _conditions_text(conditions: Mapping[str, list[str]]) -> str:
+    """`` Ours: profile …; segmentation …; training ….`` from what the results record ("" if nothing)."""
+    parts = []
+    if conditions.get("profile"):
+        parts.append("profile " + ", ".join(conditions["profile"]))
+    if conditions.get("segmentation"):
+        parts.append("segmentation: " + ", ".join(SEGMENTATION_WORDS.get(v, v) for v in conditions["segmentation"]))
+    if conditions.get("budget"):
+        parts.append("training: " + " | ".join(conditions["budget"]))
+    return f" Ours: {'; '.join(parts)}." if parts else ""
 
 
 def format_table(
@@ -356,7 +415,8 @@ def format_table(
         return rf"\textbf{{{_latex_escape(cell)}}}" if strong else _latex_escape(cell)
     lines = [rf"\begin{{tabular}}{{{'l' * n_keys}{'r' * (len(header) - n_keys)}}}", r"\hline",
              " & ".join(_latex_escape(h) for h in header) + r" \\", r"\hline"]
-    lines += [" & ".join(tex(c, b) for c, b in zip(cells, flags, strict=True)) + r" \\" for cells, flags in zip(body, bold, strict=True)]
+    lines += [" & ".join(tex(c, b) for c, b in zip(cells, flags, strict=True)) + r" \\"
+              for cells, flags in zip(body, bold, strict=True)]
     lines += [r"\hline", r"\end{tabular}", "% " + _latex_escape(_caption(table))]
     return "\n".join(lines) + "\n"
 
@@ -377,3 +437,135 @@ def failed_runs(results: pd.DataFrame) -> list[str]:
     ids = failed["run_id"] if "run_id" in failed else failed.index.astype(str)
     errors = failed["error"] if "error" in failed else pd.Series("", index=failed.index)
     return [f"failed: {run_id}: {error or 'no reason recorded'}" for run_id, error in zip(ids, errors, strict=True)]
+
+
+# --- paired differences ----------------------------------------------------------------
+
+
+def _paper_difference(row: Mapping[str, str], key: str, a: str, b: str, aliases: Mapping[str, str]) -> float:
+    """The paper's A − B for a cell (NaN where it lacks either figure)."""
+    paper = paper_results().drop_duplicates(list(KEYS))
+    lookup = {tuple(map(str, k)): v
+              for k, v in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
+    cell = {k: row[k] for k in KEYS if k != key}
+    cell["dataset"] = aliases.get(cell.get("dataset", ""), cell.get("dataset", ""))
+    figures = [lookup.get(tuple(dict(cell, **{key: side})[k] for k in KEYS), np.nan) for side in (a, b)]
+    return float(figures[0] - figures[1])
+
+
+def paired_frame(
+    results: pd.DataFrame,
+    a: str,
+    b: str,
+    key: str = "model",
+    value: str = "iou",
+    aliases: Mapping[str, str] | None = None,
+) -> pd.DataFrame:
+    """Per-seed paired differences A − B, summarised per cell.
+
+    Two runs pair when they agree on every key of :data:`PAIR_KEYS` but ``key``
+    and on the seed, ``key`` being ``a`` in one and ``b`` in the other (e.g. the
+    proposed model and the baseline trained on the same split with the same loss).
+
+    Args:
+        results: per-run results (module docstring), with ``segmentation`` and
+            ``profile`` where the runs have them.
+        a, b: the two values of ``key`` compared.
+        key: ``model`` (default) or another key of :data:`PAIR_KEYS`.
+        value: the metric column.
+        aliases: our dataset label → the paper's, for the paper's figures.
+
+    Returns:
+        One row per cell: the other pair keys, ``mean`` and ``std`` (ddof = 1;
+        NaN for one pair) of the differences in points, ``n_pairs``, ``a_wins``
+        (pairs where A's value is higher), ``paper`` (the paper's A − B for the
+        cell; NaN where it has no figure, or for a metric that is not a reading
+        of its IoU). ``attrs``: ``a``, ``b``, ``key``, ``value``.
+
+    Raises:
+        ValueError: bad results (as :func:`aggregate`), an unknown key, or no pair.
+    """
+    if key not in PAIR_KEYS or key == "dataset":
+        raise ValueError(f"cannot pair over {key!r}; one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
+    frame = _validate(results, value, PAIR_KEYS)
+    others = [k for k in PAIR_KEYS if k != key]
+    sides = [frame.loc[frame[key] == side, [*others, "seed", value]] for side in (a, b)]
+    pairs = sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
+    if pairs.empty:
+        raise ValueError(f"no paired runs: no dataset, seed and settings with both {key} {a!r} and {key} {b!r}")
+    pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * 100.0
+    pairs["a_wins"] = pairs[f"{value}_a"] > pairs[f"{value}_b"]
+    grouped = pairs.groupby(others, sort=False)
+    out = grouped["difference"].agg(mean="mean", std=lambda x: x.std(ddof=1), n_pairs="count")
+    out["a_wins"] = grouped["a_wins"].sum().astype(int)
+    out = out.reset_index()
+    compare = value in READINGS
+    out["paper"] = [_paper_difference(row, key, a, b, aliases or {}) if compare else np.nan
+                    for row in out[others].to_dict("records")]
+    out.attrs.update(a=a, b=b, key=key, value=value)
+    return out
+
+
+def _signed(mean: float, std: float, n: int) -> str:
+    if pd.isna(mean):
+        return MISSING
+    return f"{mean:+.2f}" if n < 2 or pd.isna(std) else f"{mean:+.2f} ± {std:.2f}"
+
+
+def format_paired(
+    results: pd.DataFrame,
+    a: str,
+    b: str,
+    key: str = "model",
+    fmt: str = "md",
+    value: str = "iou",
+    aliases: Mapping[str, str] | None = None,
+) -> str:
+    """:func:`paired_frame` as Markdown, LaTeX or CSV text.
+
+    Rows are the pair keys that take more than one value (dataset always), in
+    the paper's order; the others are stated in the caption. Columns: ``A − B``
+    (mean ± std of the per-seed differences, points), ``A > B`` (seeds), and
+    ``paper A − B``.
+    """
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
+    cells = paired_frame(results, a, b, key, value, aliases)
+    others = [k for k in PAIR_KEYS if k != key]
+    varying = [k for k in others if k == "dataset" or cells[k].nunique() > 1]
+    constants = {k: cells[k].iloc[0] for k in others if k not in varying and cells[k].iloc[0] != MISSING}
+    order = [{v: i for i, v in enumerate(_order(cells[k], k, "models"))} for k in varying]
+    cells = cells.iloc[sorted(range(len(cells)),
+                              key=lambda i: [o[cells[k].iloc[i]] for o, k in zip(order, varying, strict=True)])]
+    if fmt == "csv":
+        return cells[[*varying, "mean", "std", "n_pairs", "a_wins", "paper"]].to_csv(index=False)
+    header = [*varying, f"{a} − {b}", f"{a} > {b}", f"paper {a} − {b}"]
+    body = []
+    for _, row in cells.iterrows():
+        paper = MISSING if pd.isna(row["paper"]) else f"{row['paper']:+.2f}"
+        body.append([str(row[k]) for k in varying] + [_signed(row["mean"], row["std"], row["n_pairs"]),
+                                                      f"{row['a_wins']} of {row['n_pairs']}", paper])
+    caption = _paired_caption(a, b, key, value, constants)
+    if fmt == "md":
+        lines = ["| " + " | ".join(header) + " |",
+                 "|" + "|".join([":---"] * len(varying) + ["---:"] * 3) + "|"]
+        lines += ["| " + " | ".join(cells_) + " |" for cells_ in body]
+        return "\n".join(lines) + "\n\n" + caption + "\n"
+    lines = [rf"\begin{{tabular}}{{{'l' * len(varying)}rrr}}", r"\hline",
+             " & ".join(_latex_escape(h) for h in header) + r" \\", r"\hline"]
+    lines += [" & ".join(_latex_escape(c) for c in cells_) + r" \\" for cells_ in body]
+    lines += [r"\hline", r"\end{tabular}", "% " + _latex_escape(caption)]
+    return "\n".join(lines) + "\n"
+
+
+def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str, str]) -> str:
+    reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
+    text = (f"{a} − {b} in points of {value} (%){reading}: per split seed, the difference between two runs that "
+            f"differ only in {key} (same dataset, seed and settings); mean ± std over the seeds (std with ddof = 1); "
+            f"{a} > {b}: seeds where {a} scores higher. Paper: the published {a} − {b} for the same cell "
+            f"(a UNet's segmentation, the paper's own training; SPEC §7)"
+            + ("" if value in READINGS else f"; none for {value}, which is not a reading of the paper's IoU") + ".")
+    if constants:
+        text += " " + "; ".join(f"{k}: {SEGMENTATION_WORDS.get(v, v) if k == 'segmentation' else v}"
+                                for k, v in constants.items()) + "."
+    return text

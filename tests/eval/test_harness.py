@@ -2,11 +2,17 @@
 
 import json
 import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+import torch
+import yaml
 
 from synthcal.cli import main
 from synthcal.eval.harness import (
@@ -19,11 +25,12 @@ from synthcal.eval.harness import (
 )
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
-from synthcal.store.splits import SplitError
+from synthcal.store.splits import SplitError, read_split_indices
 
 ROOT = Path(__file__).resolve().parents[2]
 ORACLE = "synthcal_oracle_plugin:OracleEstimator"
 FAULTY = "synthcal_faulty_plugins"
+RETRY = "synthcal_retry_plugins"  # tests/eval/synthcal_retry_plugins.py
 
 
 @pytest.fixture(scope="module")
@@ -38,6 +45,7 @@ def data(smoke_stores, tmp_path_factory) -> Path:
 @pytest.fixture(autouse=True)
 def plugins(monkeypatch):
     monkeypatch.syspath_prepend(str(ROOT / "tests"))
+    monkeypatch.syspath_prepend(str(ROOT / "tests" / "eval"))
 
 
 def bench(data: Path, results: Path, *estimators: str, seeds: str = "0-1", extra: tuple = ()) -> int:
@@ -62,7 +70,7 @@ def test_oracle_scores_one_through_bench(data, tmp_path, capsys):
 
 def test_failing_estimators_score_zero_and_the_sweep_goes_on(data, tmp_path, capsys):
     estimators = (f"{FAULTY}:RaisingEstimator", f"{FAULTY}:NaNEstimator", "identity")
-    assert bench(data, tmp_path, *estimators, seeds="0") == 0
+    assert bench(data, tmp_path, *estimators, seeds="0") == 1  # a failed run: exit status 1
     summary = capsys.readouterr().out
     frame = collect_results(tmp_path).set_index("model")
     for model, reason in (("RaisingEstimator", "predict: ValueError: this estimator always fails"),
@@ -186,7 +194,7 @@ def test_runs_are_isolated_and_their_failures_recorded(data, tmp_path, capsys):
     faulty = ("SleepingEstimator", "ExitingEstimator", "SegfaultingEstimator", "UnreadableEstimator",
               "MutatingEstimator")
     assert bench(data, tmp_path, *(f"{FAULTY}:{name}" for name in faulty), "identity", seeds="0",
-                 extra=("--timeout", "2")) == 0
+                 extra=("--timeout", "2")) == 1
     frame = collect_results(tmp_path).set_index("model")
     assert sorted(frame.index) == sorted([*faulty, "identity"])
     reasons = {"SleepingEstimator": "predict: timed out after 2 s",
@@ -241,3 +249,145 @@ def test_bench_and_table_errors_name_the_path(data, tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_status:
         bench(data, tmp_path, "identity", extra=("--timeout", "-1"))
     assert exit_status.value.code == 2 and "'-1' is not a number of seconds >= 0" in capsys.readouterr().err
+
+
+# --- issue 14: retries, the run's identity, the profile's sizes, Ctrl-C ---------------------
+
+
+def record_of(results: Path, run_id: str) -> dict:
+    return json.loads((results / "runs" / run_id / "run.json").read_text())
+
+
+def test_a_failed_run_is_retried_once_fixed_and_finished_runs_are_kept(data, tmp_path, monkeypatch, capsys):
+    broken = tmp_path / "bug-present"
+    broken.touch()
+    monkeypatch.setenv("SYNTHCAL_TEST_BROKEN", str(broken))
+    results = tmp_path / "results"
+    assert bench(data, results, "identity", f"{RETRY}:FlakyEstimator", seeds="0") == 1
+    out = capsys.readouterr().out
+    first = collect_results(results).set_index("model")
+    flaky_id, identity_id = first.loc["FlakyEstimator", "run_id"], first.loc["identity", "run_id"]
+    assert first.loc["FlakyEstimator", "status"] == "failed"
+    assert f"failed: {flaky_id}: fit: RuntimeError: not fixed yet" in out  # the reason, on the console
+    kept = (results / "runs" / identity_id / "run.json").stat().st_mtime_ns
+
+    broken.unlink()  # the plug-in's bug is fixed; the same command again
+    assert bench(data, results, "identity", f"{RETRY}:FlakyEstimator", seeds="0") == 0
+    out = capsys.readouterr().out
+    second = collect_results(results).set_index("model")
+    assert second.loc["FlakyEstimator", "run_id"] == flaky_id and second.loc["FlakyEstimator", "status"] == "ok"
+    assert second.loc["FlakyEstimator", "iou"] == second.loc["identity", "iou"] > 0
+    assert "2 runs (0 failed)" in out and "failed:" not in out
+    assert (results / "runs" / identity_id / "run.json").stat().st_mtime_ns == kept  # not run again
+
+
+def test_the_device_is_part_of_the_identity_of_runs_that_take_one(data, tmp_path):
+    recording = f"{RETRY}:SizeRecordingEstimator"
+    on = {device: {r.model: r for r in expand_runs(data, ["intersection-1"], [recording, "identity"], [0],
+                                                   device=device)}
+          for device in ("cpu", "cuda")}
+    assert on["cpu"]["SizeRecordingEstimator"].device == "cpu"
+    assert on["cpu"]["SizeRecordingEstimator"].id != on["cuda"]["SizeRecordingEstimator"].id
+    # An estimator that takes no device runs the same wherever: one run.
+    assert on["cpu"]["identity"].device is None and on["cpu"]["identity"].id == on["cuda"]["identity"].id
+    auto = expand_runs(data, ["intersection-1"], [recording], [0])[0]  # auto: resolved here
+    assert auto.device == ("cuda" if torch.cuda.is_available() else "cpu")
+    folder = execute_run(on["cpu"]["SizeRecordingEstimator"], tmp_path)
+    record = json.loads((folder / "run.json").read_text())
+    assert record["device"] == record["run"]["device"] == record["history"]["device"] == "cpu"
+
+
+def test_bench_refuses_a_device_this_machine_lacks(data, tmp_path, capsys):
+    if torch.cuda.is_available():
+        pytest.skip("this machine has CUDA")
+    assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", "identity",
+                 "--seeds", "0", "--results", str(tmp_path), "--device", "cuda"]) == 2
+    assert "synthcal: error: --device: CUDA is not available on this machine (value 'cuda')" in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.fixture
+def tiny_config(tmp_path) -> Path:
+    """The bundled configuration with a profile ``tiny`` whose splits are smaller than the smoke stores'."""
+    config = yaml.safe_load((ROOT / "synthcal" / "datasets.yaml").read_text())
+    config["profiles"]["tiny"] = {"splits": {"train": 5, "test": 3, "dictionary": 4},
+                                  "training": config["profiles"]["smoke"]["training"]}
+    path = tmp_path / "datasets.yaml"
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+def test_a_profile_sizes_the_splits_bench_uses(data, tmp_path, tiny_config, capsys):
+    results = tmp_path / "results"
+    assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "mixed-1", "--estimator",
+                 f"{RETRY}:SizeRecordingEstimator", "--seeds", "0", "--results", str(results), "--profile", "tiny",
+                 "--config", str(tiny_config), "--device", "cpu", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    # Said up front, before the sweep: what each dataset's runs use of the stored splits (24/8/12).
+    plan = out.index("intersection-1 (seeds 0): train 5 of 24, test 3 of 8, dictionary 4 of 12")
+    assert plan < out.index("mixed-1 (seeds 0): train 5 of 24, test 3 of 8, dictionary 4 of 12") < out.index("runs (")
+    frame = collect_results(results).set_index("dataset")
+    for dataset in ("intersection-1", "mixed-1"):
+        record = record_of(results, frame.loc[dataset, "run_id"])
+        assert record["run"]["limits"] == {"dictionary": 4, "test": 3, "train": 5}
+        assert record["sizes"] == {"train": 5, "test": 3, "dictionary": 4}
+        seen = record["history"]
+        assert (seen["train"], seen["dictionary"], seen["test"]) == (5, 4, 3)  # what the estimator was handed
+        per_image = pd.read_csv(results / "runs" / record["id"] / "metrics.csv")
+        assert len(per_image) == 3  # scored on the same capped test split
+        # The first ones of the stored split (its indices ascend), the same for scoring and estimator.
+        stored = read_split_indices(data / "intersection-1.zarr", "test", 0)
+        assert per_image["pool_index"].tolist() == stored[:3].tolist()
+    # The mixed dictionary keeps an equal share of each of its four sources.
+    assert record_of(results, frame.loc["mixed-1", "run_id"])["history"]["dictionary_sources"] == [1, 1, 1, 1]
+    # The same runs without the profile's caps are other runs.
+    smoke = expand_runs(data, ["intersection-1"], [f"{RETRY}:SizeRecordingEstimator"], [0], "tiny", device="cpu")
+    assert smoke[0].id != frame.loc["intersection-1", "run_id"]
+
+
+def test_prefix_positions_keep_a_prefix_or_an_equal_share_per_source():
+    from synthcal.eval.harness import prefix_positions
+
+    assert prefix_positions(10, 4).tolist() == [0, 1, 2, 3]
+    assert prefix_positions(3, 10).tolist() == [0, 1, 2] and prefix_positions(3, None).tolist() == [0, 1, 2]
+    source = np.array([0, 0, 0, 1, 1, 1, 2, 2, 2])
+    assert prefix_positions(9, 5, source).tolist() == [0, 1, 3, 4, 6]  # 2, 2, 1
+    uneven = np.array([0, 1, 1, 1, 1])
+    assert prefix_positions(5, 3, uneven).tolist() == [0, 1, 2]  # source 0 has one: source 1 gives two
+
+
+def test_ctrl_c_stops_bench_with_130_and_a_rerun_resumes(data, tmp_path, monkeypatch):
+    slow = tmp_path / "slow"
+    slow.touch()
+    results = tmp_path / "results"
+    env = dict(os.environ, SYNTHCAL_TEST_SLOW=str(slow),
+               PYTHONPATH=os.pathsep.join([str(ROOT / "tests" / "eval"), os.environ.get("PYTHONPATH", "")]))
+    command = ["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", "identity",
+               f"{RETRY}:SlowEstimator", "--seeds", "0", "--results", str(results), "--profile", "smoke",
+               "--device", "cpu", "--quiet"]
+    process = subprocess.Popen([sys.executable, "-m", "synthcal.cli", *command], env=env,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    started = slow.with_suffix(".started")
+    deadline = time.monotonic() + 120
+    while not started.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert started.exists(), process.communicate()
+    process.send_signal(signal.SIGINT)  # Ctrl-C, as the terminal sends it to the sweep
+    try:
+        out, err = process.communicate(timeout=5)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        raise AssertionError("bench did not stop within 5 s of SIGINT") from None
+    assert process.returncode == 130, err
+    assert "run the same command again to resume" in err and "Traceback" not in err
+    with pytest.raises(ProcessLookupError):  # the interrupted run's process went with it
+        os.kill(int(started.read_text()), 0)
+    finished = {p.parent.name: p.stat().st_mtime_ns for p in (results / "runs").glob("*/run.json")}
+    assert len(finished) == 1 and next(iter(finished)).startswith("intersection-1_identity_")
+
+    slow.unlink()  # the same command again resumes: the identity run is kept, the other one runs
+    monkeypatch.setenv("SYNTHCAL_TEST_SLOW", str(slow))
+    assert main(command) == 0
+    frame = collect_results(results)
+    assert len(frame) == 2 and (frame["status"] == "ok").all()
+    assert {name: (results / "runs" / name / "run.json").stat().st_mtime_ns for name in finished} == finished

@@ -1,6 +1,7 @@
 """Result tables: aggregation over seeds, bold, the paper's figures, formats, errors."""
 
 import io
+import json
 from pathlib import Path
 
 import numpy as np
@@ -162,3 +163,143 @@ def test_failed_runs_are_listed_with_their_reason():
     assert failed_runs(frame) == ["failed: b: all 4 estimates invalid: non-finite entries",
                                   "failed: c: fit: timed out after 5 s"]
     assert failed_runs(MATCHING) == []
+
+
+# --- issue 14 item 8: tables that explain themselves --------------------------------------
+
+
+def test_compare_paper_caption_says_profile_segmentation_and_budget():
+    budget = "step-by-step Siamese 10, STN 24 epochs; 1500 train images; at 128 × 72; stn template retrieved"
+    models = runs([("intersection-1", m, "step-by-step", "top-mse", "top-mse", [0.6, 0.62]) for m in
+                   ("sha2020", "proposed")]).assign(profile="quick", segmentation="ground-truth", budget=budget)
+    caption = format_table(models, "models", compare_paper=True).splitlines()[-1]
+    assert (f"Ours: profile quick; segmentation: the true semantic maps (ground-truth); training: {budget}."
+            in caption)
+    assert "Paper: the published figure, from a UNet's segmentation and the paper's own full training" in caption
+    # Without the paper's figures, the conditions still show; the paper's do not.
+    assert "Paper:" not in format_table(models, "models").splitlines()[-1]
+    unet = format_table(models.assign(segmentation="unet"), "models", fmt="latex").splitlines()[-1]
+    assert r"segmentation: a UNet's segmentation" in unet and r"128 $\times$ 72" in unet
+
+
+def test_training_budget_reads_the_runs_settings():
+    from synthcal.eval.harness import training_budget
+
+    settings = {"unet_epochs": 10, "siamese_epochs": 8, "stn_epochs": 16, "end_to_end_epochs": 12,
+                "max_train": 100, "work_size": [128, 72], "stn_template": "retrieved", "class_reduction": "sum"}
+    record = {"run": {"training": "step-by-step", "segmentation": "unet", "settings": settings},
+              "sizes": {"train": 128}}
+    assert training_budget(record) == ("step-by-step UNet 10, Siamese 8, STN 16 epochs; 100 train images; "
+                                       "at 128 × 72; stn template retrieved; class reduction sum")
+    record["run"].update(training="end-to-end", segmentation="ground-truth")
+    record["run"]["settings"] = dict(settings, max_train=None, stn_template=None, class_reduction=None)
+    assert training_budget(record) == "end-to-end 12 epochs; 128 train images; at 128 × 72"
+    assert training_budget({"run": {"training": None, "settings": None}}) is None  # identity, template, ecc
+
+
+def test_estimators_that_do_not_train_show_no_training_keys():
+    untrained = pd.DataFrame({"dataset": "intersection-1", "model": ["identity", "template"] * 2,
+                              "training": None, "loss": None, "matching_score": None, "seed": [0, 0, 1, 1],
+                              "iou": [0.1, 0.5, 0.2, 0.6], "budget": None})
+    text = format_table(untrained, "models", compare_paper=True)
+    caption = text.splitlines()[-1]
+    for key in ("training", "loss", "matching_score"):
+        assert key not in text.splitlines()[0] and f"{key}: " not in caption
+    assert "Ours:" not in caption  # no profile, segmentation or budget recorded
+
+
+def test_a_row_of_zeros_has_no_bold():
+    failed = runs([("intersection-1", m, "step-by-step", "top-mse", "top-mse", [0.0, 0.0]) for m in
+                   ("sha2020", "proposed")])
+    assert "**" not in format_table(failed, "models") and r"\textbf" not in format_table(failed, "models", "latex")
+    one = pd.concat([failed, runs([("intersection-1", "identity", "step-by-step", "top-mse", "top-mse",
+                                    [0.01, 0.0])])])
+    assert "**0.50 ± 0.71**" in format_table(one, "models")  # any value above 0 is a best
+
+
+# --- issue 9 item 5: paired differences ---------------------------------------------------
+
+PROPOSED = [0.70, 0.72, 0.69, 0.75, 0.71]
+BASELINE = [0.68, 0.70, 0.70, 0.71, 0.69]  # differences 2, 2, -1, 4, 2 points: mean 1.8, std sqrt(12.8 / 4)
+
+
+def paired_runs():
+    rows = [("intersection-1", "proposed", "step-by-step", "top-mse", "top-mse", PROPOSED),
+            ("intersection-1", "sha2020", "step-by-step", "top-mse", "top-mse", BASELINE),
+            ("intersection-1", "proposed", "step-by-step", "mse", "top-mse", [0.60, 0.61, 0.62, 0.63, 0.64]),
+            ("intersection-1", "sha2020", "step-by-step", "mse", "top-mse", [0.61, 0.62, 0.63, 0.64, 0.65]),
+            ("intersection-1", "identity", None, None, None, [0.1] * 5)]
+    return runs(rows).assign(segmentation="ground-truth", profile="quick")
+
+
+def test_paired_differences_by_hand():
+    from synthcal.eval.tables import paired_frame
+
+    cells = paired_frame(paired_runs(), "proposed", "sha2020").set_index("loss")
+    top = cells.loc["top-mse"]
+    assert top["mean"] == pytest.approx(1.8) and top["std"] == pytest.approx(np.sqrt(12.8 / 4))
+    assert (top["n_pairs"], top["a_wins"]) == (5, 4)
+    assert top["paper"] == pytest.approx(87.91 - 85.94)  # the paper's proposed − sha2020, same cell
+    mse = cells.loc["mse"]
+    assert mse["mean"] == pytest.approx(-1.0) and mse["std"] == pytest.approx(0.0, abs=1e-9) and mse["a_wins"] == 0
+    assert mse["paper"] == pytest.approx(85.65 - 84.41)
+    # A seed without its partner is not a pair.
+    partial = paired_runs()
+    partial = partial[~((partial["model"] == "sha2020") & (partial["seed"] == 4))]
+    assert paired_frame(partial, "proposed", "sha2020").set_index("loss").loc["top-mse", "n_pairs"] == 4
+
+
+def test_paired_over_another_key_and_other_metrics():
+    from synthcal.eval.tables import format_paired, paired_frame
+
+    cells = paired_frame(paired_runs(), "top-mse", "mse", key="loss").set_index("model")
+    assert cells.loc["proposed", "mean"] == pytest.approx(np.mean(np.subtract(PROPOSED, [.60, .61, .62, .63, .64]))
+                                                          * 100)
+    assert cells.loc["proposed", "paper"] == pytest.approx(87.91 - 85.65)
+    frame = paired_runs().assign(iou_part=lambda f: f["iou"] / 2)
+    text = format_paired(frame, "proposed", "sha2020", value="iou_part")
+    assert "| intersection-1 | top-mse | +0.90 ± 0.89 | 4 of 5 | – |" in text  # no paper figure for iou_part
+    with pytest.raises(ValueError, match="no paired runs"):
+        paired_frame(paired_runs(), "proposed", "nobody")
+
+
+def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
+    from synthcal.cli import main
+
+    for row in paired_runs().to_dict("records"):
+        estimator = {"sha2020": "baseline"}.get(row["model"], row["model"])
+        run_id = f"{row['model']}_{row['loss']}_s{row['seed']}"
+        folder = tmp_path / "runs" / run_id
+        folder.mkdir(parents=True)
+        run = {"dataset": row["dataset"], "model": row["model"], "estimator": estimator, "seed": row["seed"],
+               "training": row["training"], "loss": row["loss"], "matching": row["matching_score"],
+               "segmentation": None if pd.isna(row["training"]) else row["segmentation"], "profile": "quick"}
+        summary = {"iou": row["iou"], "completeness": 1.0, "n_images": 8, "iou_part": row["iou"] / 2}
+        (folder / "run.json").write_text(json.dumps({"run": run, "id": run_id, "status": "ok", "summary": summary}))
+    assert main(["table", str(tmp_path), "--paired", "proposed", "baseline"]) == 0  # baseline: sha2020's estimator
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "| dataset | loss | proposed − sha2020 | proposed > sha2020 | paper proposed − sha2020 |"
+    assert lines[2] == "| intersection-1 | top-mse | +1.80 ± 1.79 | 4 of 5 | +1.97 |"
+    assert lines[3] == "| intersection-1 | mse | -1.00 ± 0.00 | 0 of 5 | +1.24 |"
+    assert main(["table", str(tmp_path), "--paired", "proposed", "identity", "--metric", "iou_part",
+                 "--format", "csv"]) == 0
+    csv = pd.read_csv(io.StringIO(capsys.readouterr().out)).set_index("loss")
+    assert csv.loc["top-mse", "mean"] == pytest.approx((np.mean(PROPOSED) - 0.1) * 50)
+    assert csv["paper"].isna().all()
+    assert main(["table", str(tmp_path), "--paired", "loss=top-mse", "loss=mse"]) == 0
+    out = capsys.readouterr().out
+    assert "| top-mse − mse |" in out and "identity" not in out  # a reference has no loss to pair over
+    # Pairs in another segmentation or profile are other cells, each in its own row.
+    unet = tmp_path / "runs" / "proposed_top-mse_s0" / "run.json"
+    record = json.loads(unet.read_text())
+    record["run"]["segmentation"] = "unet"
+    unet.write_text(json.dumps(record))
+    assert main(["table", str(tmp_path), "--paired", "proposed", "identity"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("| dataset | loss | segmentation | proposed − identity |")
+    assert "| intersection-1 | top-mse | unet | +60.00 | 1 of 1 | – |" in lines
+    assert main(["table", str(tmp_path), "--paired", "proposed", "nobody"]) == 2
+    assert main(["table", str(tmp_path), "--paired", "proposed", "loss=mse"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith("synthcal: error: --paired: no runs with model 'nobody'; present: ")
+    assert err[1] == "synthcal: error: --paired: both sides must vary the same key (value 'proposed loss=mse')"

@@ -44,7 +44,7 @@ from synthcal.models import (
     top_mse_loss,
     warp_semantic,
 )
-from synthcal.models.losses import ALPHA, BETA, GRID
+from synthcal.models.losses import ALPHA, BETA, CLASS_REDUCTION, GRID
 from synthcal.models.matching import _Encoded, _scores
 
 WIDTH, HEIGHT = 256, 144
@@ -90,7 +90,8 @@ def bench_matching(n_queries: int, n_templates: int, sub_queries: int, sub_templ
 
         brute_pair = seconds(brute, repeat=2) / (sub_queries * sub_templates)
         agree = torch.equal(brute(), match_ground_truth(queries[:sub_queries], templates[:sub_templates], score).index)
-        onehot = seconds(lambda score=score: _scores(onehot_q, onehot_t, score, GRID, (HEIGHT, WIDTH), ALPHA, BETA))
+        onehot = seconds(lambda score=score: _scores(onehot_q, onehot_t, score, GRID, (HEIGHT, WIDTH), ALPHA, BETA,
+                                                      CLASS_REDUCTION))
         fast_pair = fast / pairs
         print(f"{score:8s} GEMM {fast:6.2f} s = {fast_pair * 1e6:5.3f} us/pair | brute-force loop "
               f"{brute_pair * 1e6:6.1f} us/pair (on {sub_queries}x{sub_templates}; all pairs: "
@@ -148,7 +149,8 @@ def bench_training(steps: int, batch: int = 8) -> None:
     template_H = torch.from_numpy(homography(np.zeros(batch), np.full(batch, -15.0), np.full(batch, 250.0),
                                              np.tile([650.0, 950.0, 80.0], (batch, 1)), (WIDTH, HEIGHT)))
     x = torch.cat([maps, partners], dim=1)
-    for name, stn in (("BaselineSTN", BaselineSTN()), ("ProposedSTN", ProposedSTN())):
+    for name, stn in (("BaselineSTN", BaselineSTN(image_size=(WIDTH, HEIGHT))),
+                      ("ProposedSTN", ProposedSTN(image_size=(WIDTH, HEIGHT)))):
         def step(stn: torch.nn.Module = stn) -> torch.Tensor:
             H = compose_homography(stn(x), template_H, (WIDTH, HEIGHT))
             return top_mse_loss(warp_semantic(scene, H, (WIDTH, HEIGHT), "bilinear"), maps)

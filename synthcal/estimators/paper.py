@@ -36,7 +36,13 @@ The option values are defined once, in :mod:`synthcal.config`.
     :meth:`predict` (pixels) raises in that mode: there is nothing to segment with.
 ``settings``
     a profile's :class:`synthcal.config.TrainingSettings` (sizes, epochs, working
-    resolution, batch size, learning rate), as a dict or the model.
+    resolution, batch size, learning rate), as a dict or the model. Two of its
+    fields are protocol choices: ``stn_template`` — the template the STN reads in
+    training, ``retrieved`` (default: the Siamese's nearest, as at test time; in
+    step-by-step the frozen trained Siamese's, computed once; end-to-end the current
+    joint embedding's) or ``ground-truth`` (lowest matching score); and
+    ``class_reduction`` — ``sum`` (default) or ``mean`` over the class channels in
+    MSE, ``L_Top-MSE`` and the matching scores (SPEC §7, docs/decisions.md).
 ``device``
     ``auto`` (CUDA when available), ``cpu``, ``cuda``…: the same code on both.
 ``cache_dir``
@@ -44,7 +50,10 @@ The option values are defined once, in :mod:`synthcal.config`.
     UNet depends only on the train split and its settings, the Siamese also on
     the dictionary, the matching score and the UNet (or the true maps), so
     step-by-step runs that differ only in the STN or its loss train each of them
-    once. Keys hash the arrays themselves, so a changed split is a new key.
+    once. Keys hash the arrays themselves, so a changed split is a new key; the
+    ground-truth matches are keyed by the matching score and ``class_reduction``,
+    the Siamese by the matches themselves. The STN is never cached (every run
+    trains its own), so ``stn_template`` keys nothing shared.
     :attr:`trained_stages` lists what the last :meth:`fit` trained rather than
     loaded, :attr:`history` their per-epoch mean losses. End-to-end training
     shares nothing.
@@ -101,6 +110,7 @@ from synthcal.training import (
     reduce_images,
     reduce_scene,
     resolution_matrix,
+    stn_templates,
     train_end_to_end,
     train_siamese,
     train_stn,
@@ -181,10 +191,10 @@ class PaperEstimator:
         torch.manual_seed(self.seed)
         return SiameseNet(NUM_CLASSES, embedding_dim=self.settings.embedding_dim, width=self.settings.siamese_width)
 
-    def _stn(self) -> nn.Module:
+    def _stn(self, work_size: tuple[int, int]) -> nn.Module:
         cls = ProposedSTN if self.model == "proposed" else BaselineSTN
         torch.manual_seed(self.seed)
-        return cls(2 * NUM_CLASSES, width=self.settings.stn_width)
+        return cls(2 * NUM_CLASSES, image_size=work_size, width=self.settings.stn_width)
 
     def _data(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> tuple[TrainingData, dict[str, str]]:
         """The train split and dictionary at the working resolution, the ground-truth
@@ -197,10 +207,12 @@ class PaperEstimator:
         templates = np.asarray(dictionary.semantics)
         keys = {"train": digest(semantics, images if images is not None else 0, full_size, work_size),
                 "dictionary": digest(templates, np.asarray(dictionary.homographies))}
-        score = MATCHING_SCORES[self.matching]
-        match, _ = self.cache.cached("match", digest(keys["train"], keys["dictionary"], score), lambda: (
+        score, reduction = MATCHING_SCORES[self.matching], self.settings.class_reduction
+        match, _ = self.cache.cached("match", digest(keys["train"], keys["dictionary"], score, reduction), lambda: (
             match_ground_truth(torch.from_numpy(semantics).to(self.device),
-                               torch.from_numpy(templates).to(self.device), score).index.cpu()))
+                               torch.from_numpy(templates).to(self.device), score,
+                               class_reduction=reduction).index.cpu()))
+        keys["match"] = digest(match)
         scene_map, scene_frame = reduce_scene(scene.semantic, self.settings.scene_downsample)
         data = TrainingData(
             images=None if images is None else reduce_images(images, work_size),
@@ -241,8 +253,8 @@ class PaperEstimator:
         unet: nn.Module | None
         if self.training == "end-to-end":
             unet = self._unet() if self.uses_unet else ClassMapLogits()
-            siamese, stn = self._siamese(), self._stn()
-            composite = composite_model(unet, siamese, stn, data, self.loss)
+            siamese, stn = self._siamese(), self._stn(data.work_size)
+            composite = composite_model(unet, siamese, stn, data, self.loss, s.class_reduction, s.stn_template)
             train_end_to_end(composite, data, self.uses_unet, s.end_to_end_epochs, log=self._log("end-to-end"),
                              **common)
             self.trained_stages.append("end-to-end")
@@ -254,12 +266,14 @@ class PaperEstimator:
                                   s.learning_rate, self.seed)
                 unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
                     m, data, s.unet_epochs, log=log, **common))
-            siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, unet_key,
+            siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,
                                  s.siamese_width, s.embedding_dim, s.siamese_epochs, s.batch_size, s.learning_rate,
                                  self.seed)
             siamese = self._stage("siamese", siamese_key, self._siamese(), lambda m, log: train_siamese(
                 m, data, unet, s.siamese_epochs, log=log, **common))
-            stn = train_stn(self._stn(), data, unet, self.loss, s.stn_epochs, log=self._log("stn"), **common)
+            templates = stn_templates(s.stn_template, data, siamese, unet, device)
+            stn = train_stn(self._stn(data.work_size), data, unet, self.loss, s.stn_epochs, log=self._log("stn"),
+                            templates=templates, class_reduction=s.class_reduction, **common)
             self.trained_stages.append("stn")
         self._fitted = {
             "unet": unet if self.uses_unet else None,

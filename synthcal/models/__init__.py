@@ -7,7 +7,8 @@
 * :mod:`.stn` — baseline and proposed STNs, :func:`compose_homography`.
 * :mod:`.warp` — cheirality-masked warping (nearest: exactly the renderer;
   bilinear: differentiable).
-* :mod:`.losses` — MSE, Dice, ``L_Top-MSE``, ``L_Top-Dice``.
+* :mod:`.losses` — MSE, Dice, ``L_Top-MSE``, ``L_Top-Dice`` (MSE's reduction over
+  classes: ``class_reduction``, :data:`CLASS_REDUCTIONS`).
 * :mod:`.composite` — UNet → Siamese → STN → warp and the end-to-end objective.
 
 Convention: homographies map bird's-eye pixels to image pixels,
@@ -15,9 +16,11 @@ Convention: homographies map bird's-eye pixels to image pixels,
 class ids. All code is device-agnostic (it follows its inputs' ``.device``).
 """
 
-from .composite import CompositeModel, CompositeOutput, end_to_end_weights
+from .composite import STN_TEMPLATES, CompositeModel, CompositeOutput, end_to_end_weights
 from .device import device_from_name
 from .losses import (
+    CLASS_REDUCTION,
+    CLASS_REDUCTIONS,
     dice_loss,
     mse_loss,
     one_hot_maps,
@@ -33,6 +36,9 @@ from .unet import UNet, segmentation_loss
 from .warp import cheirality_mask, ground_coordinates, warp_semantic
 
 __all__ = [
+    "CLASS_REDUCTION",
+    "CLASS_REDUCTIONS",
+    "STN_TEMPLATES",
     "BaselineSTN",
     "CompositeModel",
     "CompositeOutput",

@@ -18,9 +18,14 @@ Objective
 ``L = η L_CE + τ L_con + γ L_warp`` with ``(η, τ, γ) = end_to_end_weights(epoch)``
 (SPEC §7). ``L_con`` pairs each image's embedding with its ground-truth template
 (similar) and with the nearest *other* template in the current dictionary
-embeddings (dissimilar: the hardest negative). During training the STN is given
-the ground-truth template (teacher forcing), since retrieval is not
-differentiable and is poor early on; at inference it gets the retrieved one.
+embeddings (dissimilar: the hardest negative). ``L_warp`` compares ``Ŷ`` with the
+scene rendered through the *true* homography by the same bilinear renderer, so a
+perfect estimate costs exactly 0. The STN reads, with ``stn_template="retrieved"``
+(the default), the template the current joint embedding retrieves — the batch's
+embeddings (the same forward pass as ``L_con``) against the dictionary embeddings
+of :meth:`CompositeModel.refresh_dictionary_embeddings` (the trainer refreshes
+them every epoch) — which is what it reads at test time; with ``"ground-truth"``
+it reads the template of lowest matching score (teacher forcing).
 
 Example
 -------
@@ -35,13 +40,16 @@ from dataclasses import dataclass
 import torch
 from torch import Tensor, nn
 
-from .losses import one_hot_maps, warp_loss
+from .losses import CLASS_REDUCTION, one_hot_maps, warp_loss
 from .siamese import SiameseNet, contrastive_loss, nearest_embeddings
 from .stn import compose_homography
 from .unet import UNet, segmentation_loss
 from .warp import warp_semantic
 
-__all__ = ["end_to_end_weights", "CompositeOutput", "CompositeModel"]
+__all__ = ["STN_TEMPLATES", "end_to_end_weights", "CompositeOutput", "CompositeModel"]
+
+# The template the STN reads in training: the Siamese's retrieval (as at test time) or the ground truth.
+STN_TEMPLATES = ("retrieved", "ground-truth")
 
 
 def end_to_end_weights(epoch: int) -> tuple[float, float, float]:
@@ -98,6 +106,8 @@ class CompositeModel(nn.Module):
         num_classes: number of classes C.
         warp_loss_name: ``"mse"``, ``"dice"``, ``"top_mse"`` or ``"top_dice"``.
         margin: contrastive margin.
+        class_reduction: ``"sum"`` or ``"mean"`` over classes in MSE-based warp losses.
+        stn_template: ``"retrieved"`` or ``"ground-truth"``: the STN's template in training.
     """
 
     # Buffers, declared so that type checkers see Tensors (nn.Module.__getattr__ is untyped).
@@ -108,11 +118,14 @@ class CompositeModel(nn.Module):
 
     def __init__(self, unet: UNet, siamese: SiameseNet, stn: nn.Module, scene: Tensor,
                  dictionary_semantic: Tensor, dictionary_homography: Tensor, num_classes: int = 4,
-                 warp_loss_name: str = "top_mse", margin: float = 1.0):
+                 warp_loss_name: str = "top_mse", margin: float = 1.0, class_reduction: str = CLASS_REDUCTION,
+                 stn_template: str = "retrieved"):
         super().__init__()
+        if stn_template not in STN_TEMPLATES:
+            raise ValueError(f"stn_template must be one of {', '.join(STN_TEMPLATES)}; got {stn_template!r}")
         self.unet, self.siamese, self.stn = unet, siamese, stn
-        self.num_classes, self.margin = num_classes, margin
-        self.warp_loss = warp_loss(warp_loss_name)
+        self.num_classes, self.margin, self.stn_template = num_classes, margin, stn_template
+        self.warp_loss = warp_loss(warp_loss_name, class_reduction)
         if not scene.is_floating_point():
             scene = one_hot_maps(scene, num_classes)
         if scene.ndim != 3 or scene.shape[0] != num_classes:
@@ -173,6 +186,12 @@ class CompositeModel(nn.Module):
         h_bar, H, warped = self._refine(probabilities, match_index)
         return CompositeOutput(logits, probabilities, embedding, match_index, h_bar, H, warped)
 
+    def _retrieve(self, embedding: Tensor) -> Tensor:
+        """(B,) nearest template of each (B, D) embedding in the current dictionary embeddings."""
+        if self.dictionary_embedding.numel() == 0:
+            self.refresh_dictionary_embeddings()
+        return nearest_embeddings(embedding.detach(), self.dictionary_embedding).index
+
     def _hardest_negative(self, embedding: Tensor, positive: Tensor) -> Tensor:
         """Nearest template in the current dictionary embeddings other than ``positive``."""
         if self.dictionary_embedding.numel() == 0:
@@ -181,8 +200,27 @@ class CompositeModel(nn.Module):
         distance.scatter_(1, positive[:, None], float("inf"))
         return distance.argmin(dim=1)
 
-    def training_loss(self, images: Tensor, target_semantic: Tensor, target_match: Tensor,
-                      epoch: int) -> tuple[Tensor, dict[str, float]]:
+    def _contrastive(self, embedding: Tensor, target_match: Tensor) -> Tensor:
+        """``L_con`` of (B, D) embeddings against their (B,) true templates and hardest negatives."""
+        negative = self._hardest_negative(embedding, target_match)
+        partners = self.siamese(self.templates(torch.cat([target_match, negative])))
+        same = torch.cat([torch.ones_like(target_match), torch.zeros_like(negative)])
+        return contrastive_loss(embedding.repeat(2, 1), partners, same, self.margin)
+
+    def stn_templates(self, embedding: Tensor, target_match: Tensor) -> Tensor:
+        """(B,) templates the STN reads in training: retrieved by (B, D) ``embedding``, or ``target_match``."""
+        return target_match if self.stn_template == "ground-truth" else self._retrieve(embedding)
+
+    def _warp_term(self, probabilities: Tensor, stn_match: Tensor, target_homography: Tensor) -> Tensor:
+        """``L_warp`` of the STN's estimate from ``stn_match`` against the true view, same renderer."""
+        warped = self._refine(probabilities, stn_match)[2]
+        with torch.no_grad():
+            target = warp_semantic(self.scene, target_homography.to(self.scene.device, torch.float64),
+                                   self.image_size, "bilinear")
+        return self.warp_loss(warped, target)
+
+    def training_loss(self, images: Tensor, target_semantic: Tensor, target_match: Tensor, epoch: int, *,
+                      target_homography: Tensor) -> tuple[Tensor, dict[str, float]]:
         """End-to-end objective ``η L_CE + τ L_con + γ L_warp`` at ``epoch``.
 
         Only the terms with a non-zero weight are computed.
@@ -192,6 +230,9 @@ class CompositeModel(nn.Module):
             target_semantic: (B, H, W) class ids of the images.
             target_match: (B,) ground-truth templates (lowest matching score).
             epoch: 0-based epoch (see :func:`end_to_end_weights`).
+            target_homography: (B, 3, 3) true homographies, in the frame of the model's
+                scene (as ``dictionary_homography``): ``L_warp``'s target is the scene
+                rendered through them.
 
         Returns:
             ``(loss, terms)``: the scalar loss and the float value of each
@@ -205,16 +246,12 @@ class CompositeModel(nn.Module):
         if eta:
             ce = segmentation_loss(logits, target_semantic)
             total, terms["ce"] = total + eta * ce, ce.item()
-        if tau:
-            embedding = self.siamese(probabilities)
-            negative = self._hardest_negative(embedding, target_match)
-            partners = self.siamese(self.templates(torch.cat([target_match, negative])))
-            same = torch.cat([torch.ones_like(target_match), torch.zeros_like(negative)])
-            con = contrastive_loss(embedding.repeat(2, 1), partners, same, self.margin)
+        embedding = self.siamese(probabilities) if tau or (gamma and self.stn_template == "retrieved") else None
+        if tau and embedding is not None:
+            con = self._contrastive(embedding, target_match)
             total, terms["con"] = total + tau * con, con.item()
         if gamma:
-            warped = self._refine(probabilities, target_match)[2]
-            target = one_hot_maps(target_semantic, self.num_classes, warped.dtype)
-            warp = self.warp_loss(warped, target)
+            stn_match = target_match if embedding is None else self.stn_templates(embedding, target_match)
+            warp = self._warp_term(probabilities, stn_match, target_homography)
             total, terms["warp"] = total + gamma * warp, warp.item()
         return total, terms

@@ -1,7 +1,10 @@
 """Ground-truth template matching by batched matrix products (SPEC §7).
 
 The correct match of a training map is the dictionary template of lowest matching
-score, MSE or ``L_Top-MSE`` (:mod:`synthcal.models.losses`). All pairs are scored
+score, MSE or ``L_Top-MSE`` (:mod:`synthcal.models.losses`), with the same
+``class_reduction`` keyword (``"sum"``: squared distance between per-pixel class
+vectors; ``"mean"``: that divided by C). For MSE the two readings pick the same
+templates (a constant factor); for ``L_Top-MSE`` they may not (the β hinge). All pairs are scored
 with the expansion ``‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b``: one GEMM for MSE, one GEMM
 per patch for the topological score, then the same per-patch combination as the
 loss. Queries are processed in chunks so memory stays bounded.
@@ -38,7 +41,16 @@ from itertools import pairwise
 import torch
 from torch import Tensor
 
-from .losses import ALPHA, BETA, GRID, patch_bounds, patch_pixel_counts, topological_combination
+from .losses import (
+    ALPHA,
+    BETA,
+    CLASS_REDUCTION,
+    GRID,
+    class_divisor,
+    patch_bounds,
+    patch_pixel_counts,
+    topological_combination,
+)
 
 __all__ = ["MatchResult", "class_code", "pairwise_scores", "match_ground_truth"]
 
@@ -154,8 +166,9 @@ class _Encoded:
 
 
 def _scores(q: _Encoded, t: _Encoded, score: str, grid: tuple[int, int], size: tuple[int, int],
-            alpha: float, beta: float) -> Tensor:
+            alpha: float, beta: float, class_reduction: str) -> Tensor:
     """(Q, T) scores of encoded queries against encoded templates."""
+    divisor = class_divisor(q.channels, class_reduction)
     if score == "mse":
         blocks, q_norms, t_norms = [(0, q.offsets[-1])], q.norms.sum(1, keepdim=True), t.norms.sum(1, keepdim=True)
     else:
@@ -169,13 +182,14 @@ def _scores(q: _Encoded, t: _Encoded, score: str, grid: tuple[int, int], size: t
     squared.clamp_min_(0)  # rounding of soft maps' float products
     # Same divisions as the losses, so class-id scores equal theirs bit for bit.
     if score == "mse":
-        return squared[0] * q.factor / (q.channels * size[0] * size[1])
+        return squared[0] * q.factor / (divisor * size[0] * size[1])
     counts = patch_pixel_counts(size, grid).flatten().to(squared.device, squared.dtype)
-    per_patch = squared * q.factor / (counts * q.channels)[:, None, None]  # (P, Q, T)
+    per_patch = squared * q.factor / (counts * divisor)[:, None, None]  # (P, Q, T)
     return topological_combination(per_patch.permute(1, 2, 0).unflatten(-1, grid), alpha, beta)
 
 
-def _check(queries: Tensor, templates: Tensor, score: str) -> None:
+def _check(queries: Tensor, templates: Tensor, score: str, class_reduction: str) -> None:
+    class_divisor(1, class_reduction)  # raises on an unknown value
     if score not in SCORES:
         raise ValueError(f"score must be one of {SCORES}, got {score!r}")
     if queries.shape[1:] != templates.shape[1:] or queries.dtype.is_floating_point != templates.dtype.is_floating_point:
@@ -190,6 +204,7 @@ def pairwise_scores(
     alpha: float = ALPHA,
     beta: float = BETA,
     num_classes: int = 4,
+    class_reduction: str = CLASS_REDUCTION,
 ) -> Tensor:
     """Matching score of every query against every template (no chunking).
 
@@ -201,17 +216,18 @@ def pairwise_scores(
         alpha: neighbour weight of the topological score.
         beta: hinge threshold of the topological score.
         num_classes: number of classes of class-id maps.
+        class_reduction: ``"sum"`` or ``"mean"`` over the class channels.
 
     Returns:
         (Q, T) scores, equal to ``mse_loss`` / ``top_mse_loss`` with
-        ``reduction="none"`` on each one-hot pair.
+        ``reduction="none"`` and the same ``class_reduction`` on each one-hot pair.
     """
-    _check(queries, templates, score)
+    _check(queries, templates, score, class_reduction)
     size = (queries.shape[-2], queries.shape[-1])
     patches = grid if score == "top_mse" else (1, 1)
     q = _Encoded(queries, patches, num_classes)
     t = _Encoded(templates, patches, num_classes)
-    return _scores(q, t, score, grid, size, alpha, beta)
+    return _scores(q, t, score, grid, size, alpha, beta, class_reduction)
 
 
 def match_ground_truth(
@@ -224,6 +240,7 @@ def match_ground_truth(
     alpha: float = ALPHA,
     beta: float = BETA,
     num_classes: int = 4,
+    class_reduction: str = CLASS_REDUCTION,
 ) -> MatchResult:
     """The template of lowest matching score for each query.
 
@@ -240,11 +257,12 @@ def match_ground_truth(
         alpha: neighbour weight of the topological score.
         beta: hinge threshold of the topological score.
         num_classes: number of classes of class-id maps.
+        class_reduction: ``"sum"`` or ``"mean"`` over the class channels.
 
     Returns:
         :class:`MatchResult` with (Q,) indices into ``templates`` and scores.
     """
-    _check(queries, templates, score)
+    _check(queries, templates, score, class_reduction)
     size = (queries.shape[-2], queries.shape[-1])
     patches = grid if score == "top_mse" else (1, 1)
     t = _Encoded(templates, patches, num_classes)
@@ -253,7 +271,7 @@ def match_ground_truth(
     index, best = [], []
     for start in range(0, queries.shape[0], query_chunk):
         q = _Encoded(queries[start:start + query_chunk], patches, num_classes, out=buffer)
-        value, position = _scores(q, t, score, grid, size, alpha, beta).min(dim=1)
+        value, position = _scores(q, t, score, grid, size, alpha, beta, class_reduction).min(dim=1)
         index.append(position)
         best.append(value)
     if not index:

@@ -13,21 +13,27 @@ template's bird's-eye → image homography, the estimate is
 starts with zero weights and the identity as bias, so a fresh STN returns
 ``H̄ = I`` and ``H = H_k``.
 
-Architectures (input (B, 8, H, W), any H, W ≥ 16)
---------------------------------------------------
-* :class:`BaselineSTN` (Sha et al.'s plain localisation network, in the style of
-  Jaderberg et al.'s STN): conv 7×7 stride 2 → max-pool 2 → ReLU; conv 5×5 →
-  max-pool 2 → ReLU; conv 3×3 → max-pool 2 → ReLU; adaptive average pool to 4 × 4;
-  FC → ReLU → FC(8). No normalisation, no residuals.
-* :class:`ProposedSTN` (the paper's): stem conv 5×5 stride 2 + BN + ReLU; three
-  :class:`LocBlock` (each halves the resolution: /16 overall, 16 × 9 cells at
-  256 × 144); :class:`SelfAttention2d` over the cells; adaptive average pool to
-  4 × 4; three FC layers (→ 256 → 64 → 8, ReLU between).
+Architectures (input (B, 8, H, W) of the ``image_size`` given at construction)
+------------------------------------------------------------------------------
+Both end in fully connected layers on the *flattened* feature map (no pooling to a
+fixed grid: the paper names none), so each network is built for one image size
+``(W, H)`` and says so when given another.
+
+* :class:`BaselineSTN` (Sha et al.: the classic STN localisation network of
+  Jaderberg et al., two convolutional "location layers", then the FC regressor):
+  conv 7×7 stride 2 → max-pool 2 → ReLU; conv 5×5 → max-pool 2 → ReLU; flatten;
+  FC → ReLU → FC(8). No normalisation, no residuals. Features at /8
+  (``2·width × 9 × 16`` at 128 × 72).
+* :class:`ProposedSTN` (the paper's): three :class:`LocBlock` (residual, each
+  halves the resolution: /8 overall, ``4·width × 9 × 16`` at 128 × 72);
+  :class:`SelfAttention2d` (Vaswani et al.'s scaled dot-product attention over the
+  positions, residual and layer norm); flatten; three FC layers
+  (→ 256 → 64 → 8, ReLU between).
 
 Example
 -------
 >>> import torch
->>> stn = ProposedSTN()
+>>> stn = ProposedSTN(image_size=(64, 36))
 >>> h = stn(torch.rand(2, 8, 36, 64))
 >>> bool((h == torch.tensor(IDENTITY_H8)).all())
 True
@@ -53,7 +59,6 @@ __all__ = [
 ]
 
 IDENTITY_H8 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
-_POOL = (4, 4)
 
 
 def h_bar_matrix(h_bar8: Tensor) -> Tensor:
@@ -116,8 +121,8 @@ def compose_homography(h_bar8: Tensor, template_H: Tensor, image_size: tuple[int
     return template_H + _denormalization_matrix(image_size, template_H) @ delta @ N @ template_H
 
 
-def _pooled_regression_head(in_features: int, hidden: tuple[int, ...]) -> nn.Sequential:
-    """Pool to 4 × 4, flatten, FC layers with ReLU between, 8 outputs initialised to the identity."""
+def _regression_head(in_features: int, hidden: tuple[int, ...]) -> nn.Sequential:
+    """Flatten, FC layers with ReLU between, 8 outputs initialised to the identity ``H̄``."""
     layers: list[nn.Module] = []
     for width in hidden:
         layers += [nn.Linear(in_features, width), nn.ReLU(inplace=True)]
@@ -126,7 +131,32 @@ def _pooled_regression_head(in_features: int, hidden: tuple[int, ...]) -> nn.Seq
     nn.init.zeros_(last.weight)
     with torch.no_grad():
         last.bias.copy_(torch.tensor(IDENTITY_H8))
-    return nn.Sequential(nn.AdaptiveAvgPool2d(_POOL), nn.Flatten(), *layers, last)
+    return nn.Sequential(nn.Flatten(), *layers, last)
+
+
+@torch.no_grad()
+def _feature_count(features: nn.Module, in_channels: int, image_size: tuple[int, int]) -> int:
+    """Number of values ``features`` gives for one (in_channels, H, W) input (eval mode: no BN update)."""
+    was_training = features.training
+    features.eval()
+    count = features(torch.zeros(1, in_channels, image_size[1], image_size[0])).numel()
+    features.train(was_training)
+    return count
+
+
+def _checked_input(x: Tensor, image_size: tuple[int, int], name: str) -> Tensor:
+    """``x`` of the size the network was built for, in contiguous (NCHW) memory.
+
+    One-hot maps (``one_hot_maps`` moves the class axis) and their concatenation
+    arrive in channels-last memory; with such an input the backward pass of a
+    LocBlock corrupted the heap in torch 2.13's CPU (oneDNN) convolutions
+    (``free(): invalid size``, segfaults; gone with ``torch.backends.mkldnn.enabled =
+    False`` or a contiguous input), so the networks take a contiguous copy.
+    """
+    if (x.shape[-1], x.shape[-2]) != tuple(image_size):
+        raise ValueError(f"{name} was built for {image_size[0]} × {image_size[1]} inputs (W × H), "
+                         f"got {x.shape[-1]} × {x.shape[-2]}")
+    return x.contiguous()
 
 
 class LocBlock(nn.Module):
@@ -154,54 +184,64 @@ class LocBlock(nn.Module):
 
 
 class SelfAttention2d(nn.Module):
-    """Self-attention over the positions of a feature map (SAGAN style).
+    """Self-attention over the positions of a feature map (Vaswani et al., 2017).
 
-    Queries and keys are 1×1 projections to ``channels // reduction``, values to
-    ``channels``; scaled dot-product attention over all ``H·W`` positions; the
-    result is added to the input with a learnt gain ``γ`` that starts at 0, so the
-    block starts as the identity and keeps each position's features in place.
+    The ``H·W`` positions are the tokens, their ``C`` channels the features:
+    ``Q, K, V`` are linear projections (one ``C → 3C`` layer, ``heads`` heads of
+    ``C / heads`` features), each head computes scaled dot-product attention
+    ``softmax(Q Kᵀ / √d) V`` over all positions, the heads are concatenated and
+    projected (``C → C``), then added to the input and layer-normalised over the
+    channels ("Add & Norm"). No positional encoding: the flattening that follows
+    keeps every position in its place.
+
+    Args:
+        channels: ``C``.
+        heads: number of heads; divides ``C``.
 
     Shapes: (B, C, H, W) → (B, C, H, W).
     """
 
-    def __init__(self, channels: int, reduction: int = 8):
+    def __init__(self, channels: int, heads: int = 1):
         super().__init__()
-        inner = max(channels // reduction, 1)
-        self.query = nn.Conv2d(channels, inner, 1)
-        self.key = nn.Conv2d(channels, inner, 1)
-        self.value = nn.Conv2d(channels, channels, 1)
-        self.gamma = nn.Parameter(torch.zeros(1))
+        if channels % heads:
+            raise ValueError(f"heads ({heads}) must divide channels ({channels})")
+        self.heads = heads
+        self.qkv = nn.Linear(channels, 3 * channels)
+        self.out = nn.Linear(channels, channels)
+        self.norm = nn.LayerNorm(channels)
 
     def forward(self, x: Tensor) -> Tensor:
         b, c, h, w = x.shape
-        q = self.query(x).flatten(2).transpose(1, 2)  # (B, HW, C')
-        k = self.key(x).flatten(2).transpose(1, 2)
-        v = self.value(x).flatten(2).transpose(1, 2)  # (B, HW, C)
-        attended = F.scaled_dot_product_attention(q, k, v)
-        return x + self.gamma * attended.transpose(1, 2).reshape(b, c, h, w)
+        tokens = x.flatten(2).transpose(1, 2)  # (B, HW, C)
+        q, k, v = self.qkv(tokens).unflatten(-1, (3, self.heads, c // self.heads)).permute(2, 0, 3, 1, 4)
+        attended = F.scaled_dot_product_attention(q, k, v)  # (B, heads, HW, C / heads)
+        tokens = self.norm(tokens + self.out(attended.transpose(1, 2).flatten(2)))
+        return tokens.transpose(1, 2).reshape(b, c, h, w)
 
 
 class BaselineSTN(nn.Module):
-    """Sha et al.'s STN: plain conv localisation layers and two FC layers.
+    """Sha et al.'s STN: two conv localisation layers, then the FC regressor.
 
     Args:
         in_channels: input channels (4 + 4 for map ⊕ template).
+        image_size: ``(W, H)`` of the inputs (keyword only: the FC layers depend on it).
         width: channels of the first convolution (then 2·width).
         hidden: width of the hidden FC layer.
 
     Shapes: (B, in_channels, H, W) → (B, 8) values of ``H̄``.
     """
 
-    def __init__(self, in_channels: int = 8, width: int = 32, hidden: int = 128):
+    def __init__(self, in_channels: int = 8, *, image_size: tuple[int, int], width: int = 32, hidden: int = 128):
         super().__init__()
+        self.image_size = (int(image_size[0]), int(image_size[1]))
         self.features = nn.Sequential(
             nn.Conv2d(in_channels, width, 7, stride=2, padding=3), nn.MaxPool2d(2, ceil_mode=True), nn.ReLU(True),
             nn.Conv2d(width, 2 * width, 5, padding=2), nn.MaxPool2d(2, ceil_mode=True), nn.ReLU(True),
-            nn.Conv2d(2 * width, 2 * width, 3, padding=1), nn.MaxPool2d(2, ceil_mode=True), nn.ReLU(True),
         )
-        self.head = _pooled_regression_head(2 * width * _POOL[0] * _POOL[1], (hidden,))
+        self.head = _regression_head(_feature_count(self.features, in_channels, image_size), (hidden,))
 
     def forward(self, x: Tensor) -> Tensor:
+        x = _checked_input(x, self.image_size, type(self).__name__)
         return self.head(self.features(x))
 
 
@@ -210,24 +250,26 @@ class ProposedSTN(nn.Module):
 
     Args:
         in_channels: input channels (4 + 4 for map ⊕ template).
-        width: channels of the stem; the LocBlocks have 2·, 4·, 4·width.
+        image_size: ``(W, H)`` of the inputs (keyword only: the FC layers depend on it).
+        width: channels of the first LocBlock (then 2·, 4·width).
         hidden: widths of the two hidden FC layers.
-        attention_reduction: channel reduction of the attention's queries/keys.
+        heads: attention heads.
 
     Shapes: (B, in_channels, H, W) → (B, 8) values of ``H̄``.
     """
 
-    def __init__(self, in_channels: int = 8, width: int = 32, hidden: tuple[int, int] = (256, 64),
-                 attention_reduction: int = 8):
+    def __init__(self, in_channels: int = 8, *, image_size: tuple[int, int], width: int = 32,
+                 hidden: tuple[int, int] = (256, 64), heads: int = 1):
         super().__init__()
+        self.image_size = (int(image_size[0]), int(image_size[1]))
         self.features = nn.Sequential(
-            conv_bn_relu(in_channels, width, 5, stride=2),
+            LocBlock(in_channels, width),
             LocBlock(width, 2 * width),
             LocBlock(2 * width, 4 * width),
-            LocBlock(4 * width, 4 * width),
-            SelfAttention2d(4 * width, attention_reduction),
+            SelfAttention2d(4 * width, heads),
         )
-        self.head = _pooled_regression_head(4 * width * _POOL[0] * _POOL[1], tuple(hidden))
+        self.head = _regression_head(_feature_count(self.features, in_channels, image_size), tuple(hidden))
 
     def forward(self, x: Tensor) -> Tensor:
+        x = _checked_input(x, self.image_size, type(self).__name__)
         return self.head(self.features(x))

@@ -9,14 +9,21 @@ The stages
   lowest matching score, :func:`synthcal.models.match_ground_truth`) and with two
   dissimilar ones: the hardest other template under the current embeddings
   (refreshed every epoch) and a random other one; contrastive loss.
-* :func:`train_stn` — the STN reads (input map ⊕ ground-truth template), 8
-  channels, and is trained with ``L_warp(Ŷ, Y)``: ``Ŷ`` the scene warped by the
-  composed estimate, ``Y`` the scene warped by the true homography through the
-  same bilinear, cheirality-masked renderer, so a perfect estimate costs exactly 0.
-  The template is the ground-truth one (teacher forcing, as in
-  :class:`synthcal.models.CompositeModel`): retrieval is trained separately.
+* :func:`train_stn` — the STN reads (input map ⊕ a template), 8 channels, and is
+  trained with ``L_warp(Ŷ, Y)``: ``Ŷ`` the scene warped by the composed estimate,
+  ``Y`` the scene warped by the true homography through the same bilinear,
+  cheirality-masked renderer, so a perfect estimate costs exactly 0. Which
+  template (:func:`stn_templates`): ``retrieved`` (the default) — the nearest
+  dictionary template by the trained, frozen Siamese, exactly what the STN gets at
+  test time, optimal or not (the paper's premise, Sec. 3.1 and 5); or
+  ``ground-truth`` — the template of lowest matching score. The Siamese and the
+  maps it reads (true maps, or a frozen UNet's in eval mode) do not change while
+  the STN trains, so the retrieval is computed once, before the first epoch:
+  re-embedding the dictionary every epoch would give the same templates.
 * :func:`train_end_to_end` — :meth:`CompositeModel.training_loss` under the warm-up
-  schedule scaled to the profile's epoch count (:func:`end_to_end_stage`).
+  schedule scaled to the profile's epoch count (:func:`end_to_end_stage`); its
+  STN reads what the current joint embedding retrieves (dictionary re-embedded
+  every epoch), or the ground-truth template.
 
 Working resolution: :mod:`synthcal.training.resolution`.
 
@@ -47,7 +54,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 from tqdm.auto import tqdm
 
-from synthcal.config import Loss, Matching
+from synthcal.config import ClassReduction, Loss, Matching, StnTemplate
 from synthcal.models import (
     CompositeModel,
     SiameseNet,
@@ -72,6 +79,8 @@ __all__ = [
     "ClassMapLogits",
     "input_maps",
     "embed_templates",
+    "retrieve_templates",
+    "stn_templates",
     "train_unet",
     "train_siamese",
     "train_stn",
@@ -240,6 +249,34 @@ def embed_templates(siamese: SiameseNet, data: TrainingData, device: torch.devic
     return out
 
 
+@torch.no_grad()
+def retrieve_templates(siamese: SiameseNet, data: TrainingData, unet: nn.Module | None, device: torch.device,
+                       batch_size: int = 256) -> Tensor:
+    """(K,) int64 nearest dictionary template of every train item by ``siamese`` (eval mode), on the CPU.
+
+    The Siamese reads what it reads at test time: the UNet's probabilities, or the
+    true one-hot maps when ``unet`` is None.
+    """
+    was_training = siamese.training
+    siamese.eval()
+    dictionary = embed_templates(siamese, data, device, batch_size)
+    out = [torch.empty(0, dtype=torch.long)]
+    for chunk in torch.arange(len(data)).split(batch_size):
+        out.append(nearest_embeddings(siamese(input_maps(data, chunk, unet, device)), dictionary).index.cpu())
+    siamese.train(was_training)
+    return torch.cat(out)
+
+
+def stn_templates(choice: StnTemplate, data: TrainingData, siamese: SiameseNet, unet: nn.Module | None,
+                  device: torch.device) -> Tensor:
+    """(K,) template each train item's STN input holds: ``retrieved`` by the frozen Siamese or ``ground-truth``."""
+    if choice == "ground-truth":
+        return data.match
+    if choice == "retrieved":
+        return retrieve_templates(siamese, data, unet, device)
+    raise ValueError(f"stn_template must be 'retrieved' or 'ground-truth'; got {choice!r}")
+
+
 def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | None, epochs: int, batch_size: int,
                   lr: float, device: torch.device, seed: int = 0, margin: float = 1.0,
                   progress: bool = False, log: list[float] | None = None) -> SiameseNet:
@@ -275,19 +312,26 @@ def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | Non
 
 def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: Loss, epochs: int,
               batch_size: int, lr: float, device: torch.device, seed: int = 0, progress: bool = False,
-              log: list[float] | None = None) -> nn.Module:
-    """``L_warp`` training of an STN on (input map ⊕ ground-truth template). Returns it, trained."""
+              log: list[float] | None = None, templates: Tensor | None = None,
+              class_reduction: ClassReduction = "sum") -> nn.Module:
+    """``L_warp`` training of an STN on (input map ⊕ template). Returns it, trained.
+
+    ``templates``: (K,) the template of each train item (:func:`stn_templates`;
+    None: the ground-truth ones, ``data.match``). ``class_reduction``: of the
+    MSE-based losses.
+    """
     torch.manual_seed(seed)
     generator = torch.Generator().manual_seed(seed)
     stn.to(device).train()
     optimiser = torch.optim.Adam(stn.parameters(), lr=lr)
-    criterion = warp_loss(WARP_LOSS_NAMES[loss])
+    criterion = warp_loss(WARP_LOSS_NAMES[loss], class_reduction)
+    chosen = data.match if templates is None else templates
     scene, frame = data.scene.to(device), data.scene_frame.to(device)
     bar = _epochs(epochs, f"stn {loss}", progress)
     for _ in bar:
         losses: list[float] = []
         for index in _batches(len(data), batch_size, generator):
-            template = data.match[index]
+            template = chosen[index]
             maps = torch.cat([input_maps(data, index, unet, device), _templates(data, template, device)], dim=1)
             H = compose_homography(stn(maps), data.template_homographies[template].to(device), data.work_size)
             with torch.no_grad():
@@ -330,17 +374,20 @@ def end_to_end_stage(epoch: int, epochs: int, with_unet: bool = True) -> int:
 
 
 def composite_model(unet: UNet | ClassMapLogits, siamese: SiameseNet, stn: nn.Module, data: TrainingData,
-                    loss: Loss) -> CompositeModel:
+                    loss: Loss, class_reduction: ClassReduction = "sum",
+                    stn_template: StnTemplate = "retrieved") -> CompositeModel:
     """:class:`CompositeModel` over the anti-aliased scene of the loss.
 
     Its templates' homographies are given in the reduced scene's frame
     (``A H_k D⁻¹``), so every homography it composes is too, and its scene is the
-    soft reduced map. Used for training only; estimates come from :func:`estimate`.
+    soft reduced map; :func:`train_end_to_end` gives it the true homographies in
+    the same frame. Used for training only; estimates come from :func:`estimate`.
     """
     # CompositeModel only calls its ``unet`` for logits; ClassMapLogits (true maps) serves as well,
     # though synthcal.models annotates the argument as UNet.
     return CompositeModel(cast(UNet, unet), siamese, stn, data.scene.clone(), data.templates,
-                          data.template_homographies @ data.scene_frame, NUM_CLASSES, WARP_LOSS_NAMES[loss])
+                          data.template_homographies @ data.scene_frame, NUM_CLASSES, WARP_LOSS_NAMES[loss],
+                          class_reduction=class_reduction, stn_template=stn_template)
 
 
 def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool, epochs: int, batch_size: int,
@@ -364,7 +411,9 @@ def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool,
         for index in _batches(len(data), batch_size, generator):
             semantics = data.semantics[index].to(device)
             inputs = _images(data, index, device) if with_unet else one_hot_maps(semantics, NUM_CLASSES)
-            loss, terms = model.training_loss(inputs, semantics, data.match[index].to(device), stage)
+            truth = (data.homographies[index] @ data.scene_frame).to(device)  # the model's scene frame
+            loss, terms = model.training_loss(inputs, semantics, data.match[index].to(device), stage,
+                                              target_homography=truth)
             losses.append(_step(optimiser, loss))
             bar.set_postfix(stage=stage, **{k: f"{v:.4f}" for k, v in terms.items()})
         _record(log, losses)

@@ -13,7 +13,7 @@ from synthcal.estimators import SemanticEstimator, load_estimator
 from synthcal.estimators.paper import BaselineEstimator, PaperEstimator, ProposedEstimator
 from synthcal.generate.render import render_semantic
 from synthcal.generate.splits import draw_splits
-from synthcal.models import end_to_end_weights, one_hot_maps, warp_semantic
+from synthcal.models import end_to_end_weights, match_ground_truth, nearest_embeddings, one_hot_maps, warp_semantic
 from synthcal.training import (
     StageCache,
     end_to_end_stage,
@@ -160,3 +160,66 @@ def test_stage_cache_trains_a_stage_once_when_two_callers_need_it_at_once(tmp_pa
     assert sorted(trained for _, trained in results) == [False, True]
     for state, _ in results:
         torch.testing.assert_close(state["weight"], torch.arange(3.0))
+
+
+class _Recording(torch.nn.Module):
+    """Wraps an STN and keeps every (input map, template) pair it reads, as class ids."""
+
+    def __init__(self, stn: torch.nn.Module, pairs: set[tuple[bytes, bytes]]):
+        super().__init__()
+        self.stn, self.pairs = stn, pairs
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if self.training:
+            for item in x.detach():
+                self.pairs.add((item[:4].argmax(0).to(torch.uint8).numpy().tobytes(),
+                                item[4:].argmax(0).to(torch.uint8).numpy().tobytes()))
+        return self.stn(x)
+
+
+@pytest.mark.parametrize("stn_template", ["retrieved", "ground-truth"])
+def test_step_by_step_stn_reads_the_retrieved_template_by_default(splits, settings, stn_template, monkeypatch):
+    pairs: set[tuple[bytes, bytes]] = set()
+    build = PaperEstimator._stn
+    monkeypatch.setattr(PaperEstimator, "_stn", lambda self, size: _Recording(build(self, size), pairs))
+    options = {} if stn_template == "retrieved" else {"stn_template": stn_template}
+    estimator = fit(splits, {**settings, **options}, segmentation="ground-truth")
+    # What the trained Siamese retrieves for each train map, and the ground truth (L_Top-MSE, sum).
+    maps, templates = splits["train"].semantics, splits["dictionary"].semantics
+    f = estimator._fitted
+    with torch.no_grad():
+        embedded = f["siamese"](one_hot_maps(torch.from_numpy(np.asarray(maps))))
+    retrieved = nearest_embeddings(embedded, f["embedding"]).index.numpy()
+    truth = match_ground_truth(torch.from_numpy(np.asarray(maps)), torch.from_numpy(np.asarray(templates)),
+                               "top_mse").index.numpy()
+    assert (retrieved != truth).mean() > 0.2  # the premise: retrieval is not the ground truth
+    chosen = retrieved if stn_template == "retrieved" else truth
+    expected = {(m.tobytes(), templates[k].tobytes()) for m, k in zip(np.asarray(maps), chosen, strict=True)}
+    assert pairs == expected
+
+
+def test_protocol_settings_and_the_stage_cache(splits, settings, tmp_path):
+    first = fit(splits, settings, segmentation="ground-truth", cache_dir=tmp_path)
+    assert first.trained_stages == ["siamese", "stn"]
+    # The STN's template changes no shared stage: only the STN trains again.
+    other = fit(splits, {**settings, "stn_template": "ground-truth"}, segmentation="ground-truth", cache_dir=tmp_path)
+    assert other.trained_stages == ["stn"]
+    # The class reduction changes the ground-truth matches (their own cache entry), and the
+    # Siamese trained on them exactly when they differ.
+    mean = fit(splits, {**settings, "class_reduction": "mean"}, segmentation="ground-truth", cache_dir=tmp_path)
+    assert len(list((tmp_path / "match").glob("*.pt"))) == 2
+    maps = torch.from_numpy(np.asarray(splits["train"].semantics))
+    templates = torch.from_numpy(np.asarray(splits["dictionary"].semantics))
+    differ = not torch.equal(*(match_ground_truth(maps, templates, "top_mse", class_reduction=r).index
+                               for r in ("sum", "mean")))
+    assert mean.trained_stages == (["siamese", "stn"] if differ else ["stn"])
+    with pytest.raises(ValueError, match="stn_template"):
+        PaperEstimator(settings={**settings, "stn_template": "best"})
+
+
+def test_vocabularies_agree_with_the_models():
+    from synthcal import config, models
+
+    assert config.STN_TEMPLATES == models.STN_TEMPLATES
+    assert config.CLASS_REDUCTIONS == models.CLASS_REDUCTIONS
+    assert config.TrainingSettings().class_reduction == models.CLASS_REDUCTION

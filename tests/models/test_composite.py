@@ -38,10 +38,11 @@ def data() -> dict[str, torch.Tensor]:
     }
 
 
-def _model(data, stn_class=ProposedSTN) -> CompositeModel:
+def _model(data, stn_class=ProposedSTN, **options) -> CompositeModel:
     torch.manual_seed(0)
-    return CompositeModel(UNet(width=4, depth=2), SiameseNet(width=4, embedding_dim=8, depth=3), stn_class(width=4),
-                          data["scene"], data["dictionary"], data["homography"])
+    return CompositeModel(UNet(width=4, depth=2), SiameseNet(width=4, embedding_dim=8, depth=3),
+                          stn_class(width=4, image_size=IMAGE), data["scene"], data["dictionary"], data["homography"],
+                          **options)
 
 
 def test_end_to_end_weights_schedule():
@@ -72,7 +73,8 @@ def _grad_norm(module: torch.nn.Module) -> float:
 @pytest.mark.parametrize("epoch, terms", [(0, {"ce"}), (25, {"con"}), (45, {"ce", "con", "warp"})])
 def test_training_loss_terms(data, epoch, terms):
     model = _model(data)
-    loss, parts = model.training_loss(data["images"], data["semantic"], data["match"], epoch)
+    loss, parts = model.training_loss(data["images"], data["semantic"], data["match"], epoch,
+                                      target_homography=data["homography"][data["match"]])
     assert set(parts) == terms and torch.isfinite(loss)
     loss.backward()
     assert _grad_norm(model.unet) > 0
@@ -98,3 +100,54 @@ def test_scene_as_class_ids_or_as_float_maps(data):
     torch.testing.assert_close(maps.scene, ids.scene * 0.5)  # float maps are taken as they are
     with pytest.raises(ValueError, match=r"scene: expected .* got shape \(3, "):
         CompositeModel(ids.unet, ids.siamese, ids.stn, soft[:3], data["dictionary"], data["homography"])
+
+
+class _MeanClasses(torch.nn.Module):
+    """A stand-in Siamese whose retrieval is easy to compute by hand: the class shares of a map."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return x.mean(dim=(2, 3))
+
+
+class _Recording(torch.nn.Module):
+    """Wraps an STN and keeps the template half of every input it reads."""
+
+    def __init__(self, stn: torch.nn.Module):
+        super().__init__()
+        self.stn, self.templates = stn, []
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        self.templates.append(x[:, 4:].detach().clone())
+        return self.stn(x)
+
+
+@pytest.mark.parametrize("stn_template", ["retrieved", "ground-truth"])
+def test_stn_reads_the_retrieved_template_by_default(data, stn_template):
+    options = {} if stn_template == "retrieved" else {"stn_template": stn_template}
+    model = _model(data, **options)
+    model.siamese = _MeanClasses()
+    model.stn = _Recording(model.stn)
+    # What the stand-in retrieves, by hand; the "true" matches are made to differ from it.
+    with torch.no_grad():
+        shares = model.unet(data["images"]).softmax(1).mean(dim=(2, 3))
+    dictionary = torch.nn.functional.one_hot(data["dictionary"].long(), 4).float().mean(dim=(1, 2))
+    retrieved = torch.cdist(shares, dictionary).argmin(dim=1)
+    truth = (retrieved + 1) % len(dictionary)
+    _, terms = model.training_loss(data["images"], data["semantic"], truth, 45,
+                                   target_homography=data["homography"][truth])
+    assert "warp" in terms and len(model.stn.templates) == 1
+    expected = retrieved if stn_template == "retrieved" else truth
+    onehot = torch.nn.functional.one_hot(data["dictionary"][expected].long(), 4).permute(0, 3, 1, 2).float()
+    assert torch.equal(model.stn.templates[0], onehot)
+
+
+def test_warp_loss_compares_like_with_like(data):
+    """L_warp's target is the scene rendered by the same renderer: the true H costs exactly 0."""
+    model = _model(data, stn_template="ground-truth", warp_loss_name="mse")
+    # A fresh STN returns the template's H; make the true homographies exactly those.
+    _, terms = model.training_loss(data["images"], data["semantic"], data["match"], 45,
+                                   target_homography=data["homography"][data["match"]])
+    assert terms["warp"] == 0.0
+    _, terms = model.training_loss(data["images"], data["semantic"], data["match"], 45,
+                                   target_homography=data["homography"][(data["match"] + 1) % 6])
+    assert terms["warp"] > 0.01

@@ -11,13 +11,14 @@ from synthcal.models.matching import class_code, match_ground_truth, pairwise_sc
 SCORE_FN = {"mse": mse_loss, "top_mse": top_mse_loss}
 
 
-def _brute_force(queries: torch.Tensor, templates: torch.Tensor, score: str) -> torch.Tensor:
+def _brute_force(queries: torch.Tensor, templates: torch.Tensor, score: str,
+                 class_reduction: str = "sum") -> torch.Tensor:
     """(Q, T) scores, one pair at a time, with the training losses."""
     fn = SCORE_FN[score]
     out = torch.empty(len(queries), len(templates), dtype=torch.float64)
     for i in range(len(queries)):
         for j in range(len(templates)):
-            out[i, j] = fn(queries[i:i + 1], templates[j:j + 1], reduction="none")[0]
+            out[i, j] = fn(queries[i:i + 1], templates[j:j + 1], reduction="none", class_reduction=class_reduction)[0]
     return out
 
 
@@ -40,14 +41,16 @@ def _class_id_sets(seed: int, size: tuple[int, int], num_classes: int = 4):
 
 @pytest.mark.parametrize("score", ["mse", "top_mse"])
 @pytest.mark.parametrize("size", [(16, 24), (18, 30)])
-def test_class_ids_equal_brute_force(score, size):
+@pytest.mark.parametrize("reduction", ["sum", "mean"])
+def test_class_ids_equal_brute_force(score, size, reduction):
     queries, templates = _class_id_sets(3, size)
-    brute = _brute_force(one_hot_maps(queries, 4, torch.float64), one_hot_maps(templates, 4, torch.float64), score)
-    fast = pairwise_scores(queries, templates, score)
+    brute = _brute_force(one_hot_maps(queries, 4, torch.float64), one_hot_maps(templates, 4, torch.float64), score,
+                         reduction)
+    fast = pairwise_scores(queries, templates, score, class_reduction=reduction)
     # Exact small-integer arithmetic: the float32 scores equal the float64 ones
     # up to float32 rounding of the final divisions and sums.
     torch.testing.assert_close(fast.double(), brute, rtol=1e-6, atol=1e-7)
-    result = match_ground_truth(queries, templates, score, query_chunk=3)
+    result = match_ground_truth(queries, templates, score, query_chunk=3, class_reduction=reduction)
     assert result.index.tolist() == _first_argmin(brute).tolist()
     assert result.index[3] == 5  # the tie goes to the lower index
     torch.testing.assert_close(result.score.double(), brute.min(1).values, rtol=1e-6, atol=1e-7)

@@ -48,7 +48,7 @@ def test_siamese_shapes(batch, size):
 @pytest.mark.parametrize("batch", [1, 3])
 @pytest.mark.parametrize("size", SIZES)
 def test_fresh_stn_is_identity(stn_class, batch, size):
-    stn = stn_class(width=4)
+    stn = stn_class(width=4, image_size=(size[1], size[0]))
     h = stn(torch.rand(batch, 8, *size))
     assert h.shape == (batch, 8)
     assert torch.equal(h, torch.tensor(IDENTITY_H8).expand(batch, 8))
@@ -60,7 +60,7 @@ def test_fresh_stn_is_identity(stn_class, batch, size):
 
 @pytest.mark.parametrize("stn_class", [BaselineSTN, ProposedSTN])
 def test_stn_trains(stn_class):
-    stn = stn_class(width=4)
+    stn = stn_class(width=4, image_size=(64, 36))
     x = torch.rand(2, 8, 36, 64)
     stn(x).square().sum().backward()
     grads = [p.grad for p in stn.parameters() if p.grad is not None]
@@ -80,14 +80,79 @@ def test_compose_homography_formula():
     torch.testing.assert_close((N @ corners.T).T[:, :2], torch.tensor([[-1.0, -1], [1, 1]], dtype=torch.float64))
 
 
-def test_locblock_and_attention_shapes():
-    x = torch.rand(2, 8, 9, 16)
-    assert LocBlock(8, 12)(x).shape == (2, 12, 5, 8)
-    attention = SelfAttention2d(8, reduction=4)
-    assert torch.equal(attention(x), x)  # γ = 0: the identity at initialisation
+def test_locblock_shapes():
+    assert LocBlock(8, 12)(torch.rand(2, 8, 9, 16)).shape == (2, 12, 5, 8)
+
+
+def _convs(module: torch.nn.Module) -> list[torch.nn.Conv2d]:
+    return [m for m in module.modules() if isinstance(m, torch.nn.Conv2d)]
+
+
+def test_baseline_localisation_has_two_conv_layers():
+    stn = BaselineSTN(width=4, image_size=(64, 36))
+    convs = _convs(stn)
+    assert [(c.in_channels, c.out_channels, c.kernel_size) for c in convs] == [(8, 4, (7, 7)), (4, 8, (5, 5))]
+    # Then the FC regressor on the flattened features: 8 channels × ⌈36/8⌉ × ⌈64/8⌉.
+    linears = [m for m in stn.head if isinstance(m, torch.nn.Linear)]
+    assert [(m.in_features, m.out_features) for m in linears] == [(8 * 5 * 8, 128), (128, 8)]
+    assert not any(isinstance(m, (torch.nn.AdaptiveAvgPool2d, torch.nn.BatchNorm2d)) for m in stn.modules())
+
+
+def test_proposed_is_three_locblocks_attention_three_fc():
+    stn = ProposedSTN(width=4, image_size=(64, 36))
+    kinds = [type(m) for m in stn.features]
+    assert kinds == [LocBlock, LocBlock, LocBlock, SelfAttention2d]
+    # Every convolution belongs to a LocBlock (no stem).
+    assert len(_convs(stn)) == sum(len(_convs(block)) for block in stn.features[:3]) == 3 * 3
+    linears = [m for m in stn.head if isinstance(m, torch.nn.Linear)]
+    assert [(m.in_features, m.out_features) for m in linears] == [(16 * 5 * 8, 256), (256, 64), (64, 8)]
+    assert not any(isinstance(m, torch.nn.AdaptiveAvgPool2d) for m in stn.modules())
+
+
+@pytest.mark.parametrize("stn_class", [BaselineSTN, ProposedSTN])
+def test_stn_names_its_image_size(stn_class):
+    stn = stn_class(width=4, image_size=(64, 36))
+    with pytest.raises(ValueError, match="64 × 36 inputs .* got 50 × 37"):
+        stn(torch.rand(1, 8, 37, 50))
+
+
+def _hand_attention(x: torch.Tensor, attention: SelfAttention2d) -> torch.Tensor:
+    """softmax(Q Kᵀ / √d) V per head over the H·W positions, written out."""
+    b, c, h, w = x.shape
+    heads, d = attention.heads, c // attention.heads
+    tokens = x.flatten(2).transpose(1, 2)  # (B, HW, C)
+    weight, bias = attention.qkv.weight, attention.qkv.bias
+    q, k, v = (tokens @ weight[i * c:(i + 1) * c].T + bias[i * c:(i + 1) * c] for i in range(3))
+    outputs = []
+    for head in range(heads):
+        part = slice(head * d, (head + 1) * d)
+        scores = q[..., part] @ k[..., part].transpose(1, 2) / d ** 0.5  # (B, HW, HW)
+        outputs.append(scores.softmax(dim=-1) @ v[..., part])
+    mixed = attention.out(torch.cat(outputs, dim=-1))
+    return attention.norm(tokens + mixed).transpose(1, 2).reshape(b, c, h, w)
+
+
+@pytest.mark.parametrize("heads", [1, 2])
+def test_attention_is_scaled_dot_product_over_positions(heads):
+    torch.manual_seed(0)
+    attention = SelfAttention2d(8, heads=heads)
+    x = torch.randn(2, 8, 5, 7)
     with torch.no_grad():
-        attention.gamma.fill_(1.0)
-    assert attention(x).shape == x.shape and not torch.equal(attention(x), x)
+        torch.testing.assert_close(attention(x), _hand_attention(x, attention))
+        # ... and PyTorch's own multi-head attention with the same weights.
+        reference = torch.nn.MultiheadAttention(8, heads, batch_first=True)
+        reference.in_proj_weight.copy_(attention.qkv.weight)
+        reference.in_proj_bias.copy_(attention.qkv.bias)
+        reference.out_proj.weight.copy_(attention.out.weight)
+        reference.out_proj.bias.copy_(attention.out.bias)
+        tokens = x.flatten(2).transpose(1, 2)
+        expected = attention.norm(tokens + reference(tokens, tokens, tokens, need_weights=False)[0])
+        torch.testing.assert_close(attention(x), expected.transpose(1, 2).reshape(x.shape))
+    # Global: a change at one position moves the output at every position.
+    y = x.clone()
+    y[:, :, 0, 0] += 1.0
+    changed = (attention(y) - attention(x)).abs().amax(dim=1) > 1e-6
+    assert changed.all()
 
 
 def test_nearest_embeddings_equal_brute_force():
@@ -121,3 +186,16 @@ def test_device_from_name():
     if not torch.cuda.is_available():
         with pytest.raises(RuntimeError):
             device_from_name("cuda")
+
+
+@pytest.mark.parametrize("stn_class", [BaselineSTN, ProposedSTN])
+def test_stn_convolutions_read_contiguous_memory(stn_class):
+    """One-hot maps come in channels-last memory, which crashed LocBlock backward passes
+    in torch's CPU convolutions (stn.py, ``_checked_input``): the STN hands on a contiguous copy."""
+    stn = stn_class(width=4, image_size=(64, 36))
+    seen = []
+    stn.features[0].register_forward_pre_hook(lambda _, args: seen.append(args[0].is_contiguous()))
+    x = torch.rand(2, 36, 64, 8).permute(0, 3, 1, 2)  # channels-last, as cat(one_hot_maps(...)) gives
+    assert not x.is_contiguous()
+    stn(x).sum().backward()
+    assert seen == [True]

@@ -2,7 +2,8 @@
 
 Built-in scenes are procedural and deterministic (``build_scene``: the same name
 gives bit-identical, read-only arrays on every call and machine); user scenes are
-read from two PNG files (``load_user_scene``).
+read from two PNG files (``load_user_scene``) or built from an OpenStreetMap
+extract around a centre (``build_osm_scene``, :mod:`.osm`).
 
 Example
 -------
@@ -21,11 +22,12 @@ from .base import NUM_CLASSES, Scene, SceneError, colorize, draw_scene, freeze
 from .intersection import CLASSES as INTERSECTION_CLASSES
 from .intersection import LAYOUTS, PPM, build_intersection
 from .intersection import PALETTE as INTERSECTION_PALETTE
+from .osm import build_osm_scene
 from .soccer import build_soccer
 from .user import load_user_scene
 
-__all__ = ["Scene", "SceneError", "BUILTIN_SCENES", "build_scene", "load_user_scene", "draw_scene", "colorize",
-           "NUM_CLASSES"]
+__all__ = ["Scene", "SceneError", "BUILTIN_SCENES", "build_scene", "load_user_scene", "build_osm_scene", "draw_scene",
+           "colorize", "NUM_CLASSES"]
 
 BUILTIN_SCENES: dict[str, str] = {
     **{name: layout.description for name, layout in LAYOUTS.items()},

@@ -22,7 +22,7 @@ import numpy as np
 from .roadkit import SHIFT, Point, circle, fixed
 
 __all__ = ["MaterialLook", "base_colours", "add_grain", "shade", "fill_rgb", "Building", "place_buildings",
-           "draw_building", "building_shadow", "Tree", "draw_tree", "Car", "draw_car", "car_outline", "CAR_COLOURS"]
+           "draw_building", "building_shadow", "Tree", "draw_tree", "Car", "draw_car", "car_outline", "cars_on_road", "CAR_COLOURS"]
 
 
 @dataclass(frozen=True)
@@ -230,6 +230,22 @@ def car_outline(car: Car) -> list[Point]:
     L, W, k = car.length / 2, car.width / 2, car.width * 0.18
     return _local(car.centre, car.angle, [(-L + k, -W), (L - k, -W), (L, -W + k), (L, W - k), (L - k, W),
                                           (-L + k, W), (-L, W - k), (-L, -W + k)])
+
+
+def cars_on_road(cars: Sequence[Car], semantic: np.ndarray) -> list[Car]:
+    """The cars wholly on road (class 1 of ``semantic``, (H, W)) and clear of an earlier kept one, in order."""
+    h, w = semantic.shape
+    kept: list[Car] = []
+    for car in cars:
+        pts = np.round(np.asarray(car_outline(car) + [car.centre])).astype(int)
+        inside = (pts[:, 0] >= 0) & (pts[:, 0] < w) & (pts[:, 1] >= 0) & (pts[:, 1] < h)
+        if not inside.all() or np.any(semantic[pts[:, 1], pts[:, 0]] != 1):
+            continue
+        if any(math.hypot(car.centre[0] - o.centre[0], car.centre[1] - o.centre[1]) < 0.55 * (car.length + o.length)
+               for o in kept):
+            continue
+        kept.append(car)
+    return kept
 
 
 def draw_car(rgb: np.ndarray, car: Car) -> None:

@@ -64,6 +64,7 @@ from .dressing import (
     base_colours,
     building_shadow,
     car_outline,
+    cars_on_road,
     draw_building,
     draw_car,
     draw_tree,
@@ -240,7 +241,7 @@ def _traffic(net: Network, canvas: Canvas, layout: Layout, rng: np.random.Genera
             cars += _lane_cars(net.centre, g, lat, sign, end, rng)
     if net.roundabout is not None:
         cars += _ring_cars(net.centre, net.roundabout, rng)
-    return _on_road(cars, canvas, layout.size)[: layout.cars]
+    return cars_on_road(cars, canvas.semantic)[: layout.cars]
 
 
 def _lane_cars(c: Point, g: LegGeometry, lat: float, sign: float, end: float, rng: np.random.Generator) -> list[Car]:
@@ -270,21 +271,6 @@ def _ring_cars(c: Point, ring: Roundabout, rng: np.random.Generator) -> list[Car
             cars.append(Car(spot, math.degrees(a) - 90.0, 4.5 * PPM, 1.85 * PPM,
                             CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))]))
     return cars
-
-
-def _on_road(cars: list[Car], canvas: Canvas, size: tuple[int, int]) -> list[Car]:
-    """The cars wholly on road (class 1) and not overlapping an earlier one, in order."""
-    on_road: list[Car] = []
-    for car in cars:
-        pts = np.round(np.asarray(car_outline(car) + [car.centre])).astype(int)
-        inside = (pts[:, 0] >= 0) & (pts[:, 0] < size[0]) & (pts[:, 1] >= 0) & (pts[:, 1] < size[1])
-        if not inside.all() or np.any(canvas.semantic[pts[:, 1], pts[:, 0]] != 1):
-            continue
-        if any(math.hypot(car.centre[0] - o.centre[0], car.centre[1] - o.centre[1]) < 0.55 * (car.length + o.length)
-               for o in on_road):
-            continue
-        on_road.append(car)
-    return on_road
 
 
 def _trees(net: Network, canvas: Canvas, layout: Layout, rng: np.random.Generator) -> list[Tree]:

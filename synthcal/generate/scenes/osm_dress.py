@@ -29,6 +29,7 @@ from .dressing import (
     add_grain,
     base_colours,
     car_outline,
+    cars_on_road,
     draw_car,
     draw_tree,
     fill_rgb,
@@ -229,23 +230,6 @@ def _lane_cars(road: Road, frame: Frame, rng: np.random.Generator) -> list[Car]:
     return out
 
 
-def _on_road(cars: list[Car], semantic: np.ndarray) -> list[Car]:
-    """The cars wholly on road (class 1) and clear of an earlier one, in order."""
-    h, w = semantic.shape
-    kept: list[Car] = []
-    for car in cars:
-        pts = np.round(np.asarray(car_outline(car) + [car.centre])).astype(int)
-        if not ((pts[:, 0] >= 0) & (pts[:, 0] < w) & (pts[:, 1] >= 0) & (pts[:, 1] < h)).all():
-            continue
-        if np.any(semantic[pts[:, 1], pts[:, 0]] != 1):
-            continue
-        if any(math.hypot(car.centre[0] - o.centre[0], car.centre[1] - o.centre[1]) < 0.55 * (car.length + o.length)
-               for o in kept):
-            continue
-        kept.append(car)
-    return kept
-
-
 # --------------------------------------------------------------------------- trees and buildings
 def _trees(features: list[Feature], semantic: np.ndarray, frame: Frame, rng: np.random.Generator) -> list[Tree]:
     """Mapped trees and tree rows, then a seeded scatter on grass at least 3.5 m from anything else."""
@@ -333,7 +317,7 @@ def dress(painted: Painted, features: list[Feature], frame: Frame, rng: np.rando
     azimuth = math.radians(rng.uniform(200, 245))
     sun = (0.85 * math.cos(azimuth), 0.85 * math.sin(azimuth))
     candidates = [car for r in painted.roads for car in _lane_cars(r, frame, rng)]
-    cars = _on_road(candidates, canvas.semantic)
+    cars = cars_on_road(candidates, canvas.semantic)
     mask = np.zeros(canvas.semantic.shape, np.uint8)
     for car in cars:
         fill_rgb(mask, [(x + sun[0] * 1.2 * ppm, y + sun[1] * 1.2 * ppm) for x, y in car_outline(car)], 255)

@@ -511,9 +511,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     settings = training.settings()  # --stn-template / --class-reduction override the profile's
     settings.update({key: value for key in ("stn_template", "class_reduction")
                      if (value := getattr(args, key)) is not None})
+    dictionary = args.dictionary or {label: config.dictionary(label, args.profile) for label in args.datasets}
     runs = expand_runs(args.data, args.datasets, args.estimator, parse_seeds(args.seeds), args.profile,
                        settings, args.training, args.loss, args.matching, segmentations,
-                       device=args.device, limits=_bench_limits(config, args.profile))
+                       device=args.device, limits=_bench_limits(config, args.profile), dictionary=dictionary)
     print(f"bench: {len(runs)} runs, profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
     print("\n".join(plan_lines(runs)), flush=True)
     started = time.perf_counter()
@@ -764,6 +765,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--class-reduction", default=None, choices=CLASS_REDUCTIONS,
                    help="how MSE, Top-MSE and the matching scores reduce over the class channels: sum (squared "
                         "distance of per-pixel class vectors) or mean (that / 4); default: the profile's (sum)")
+    from synthcal.config import DICTIONARIES
+
+    p.add_argument("--dictionary", default=None, choices=DICTIONARIES,
+                   help="what the estimators search: split (the seed's drawn dictionary) or pool (every pool sample "
+                        "outside the seed's train and test sets; not for mixed dictionaries); default: the "
+                        "profile's or dataset's dictionary: in datasets.yaml, else split")
     p.add_argument("--device", default="auto", help="torch device: auto (CUDA when available), cpu, cuda")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the runs on this Dask scheduler")
     p.add_argument("--timeout", type=_seconds, default=_DEFAULT_TIMEOUT, metavar="SECONDS",

@@ -50,6 +50,7 @@ __all__ = [
     "Segmentation",
     "StnTemplate",
     "ClassReduction",
+    "Dictionary",
     "MODELS",
     "MODEL_LABELS",
     "TRAININGS",
@@ -58,6 +59,7 @@ __all__ = [
     "SEGMENTATIONS",
     "STN_TEMPLATES",
     "CLASS_REDUCTIONS",
+    "DICTIONARIES",
     "ConfigError",
     "check_dataset_name",
     "GRID_AXES",
@@ -96,6 +98,9 @@ StnTemplate = Literal["retrieved", "ground-truth"]
 # How MSE-based losses and matching scores reduce over the class channels (SPEC §7):
 # ``sum``: the squared distance between per-pixel class vectors; ``mean``: that divided by C.
 ClassReduction = Literal["sum", "mean"]
+# What ``synthcal bench`` searches: the seed's dictionary split, or every pool sample
+# outside the seed's train and test sets (README "The pool dictionary").
+Dictionary = Literal["split", "pool"]
 
 MODELS: tuple[Model, ...] = get_args(Model)
 TRAININGS: tuple[Training, ...] = get_args(Training)
@@ -104,6 +109,7 @@ MATCHINGS: tuple[Matching, ...] = get_args(Matching)
 SEGMENTATIONS: tuple[Segmentation, ...] = get_args(Segmentation)
 STN_TEMPLATES: tuple[StnTemplate, ...] = get_args(StnTemplate)
 CLASS_REDUCTIONS: tuple[ClassReduction, ...] = get_args(ClassReduction)
+DICTIONARIES: tuple[Dictionary, ...] = get_args(Dictionary)
 
 # Model option → its label in run records and tables (the paper calls the baseline "sha2020").
 MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020"}
@@ -385,7 +391,9 @@ class DatasetConfig(_Strict):
     ``seed`` (≥ 0) is the dataset's own pool seed, used as is; without it the pool
     is drawn from ``defaults.seed`` and the name (:attr:`DatasetSpec.pool_entropy`).
     ``min_field_fraction`` (0 ≤ f < 1) redraws grid cameras whose semantic map has
-    fewer non-background pixels than that share.
+    fewer non-background pixels than that share. ``dictionary`` is what ``synthcal
+    bench`` searches for this dataset (``split``, the default, or ``pool``); it
+    changes no stored byte.
     """
 
     scene: str
@@ -397,6 +405,7 @@ class DatasetConfig(_Strict):
     image_size: tuple[int, int] | None = None
     splits: SplitSizes | None = None
     min_field_fraction: float | None = Field(None, ge=0, lt=1)
+    dictionary: Dictionary | None = None
 
     @field_validator("dictionary_from", mode="before")
     @classmethod
@@ -416,6 +425,9 @@ class DatasetConfig(_Strict):
             raise ValueError(f"poses {self.poses!r}: every pose is in train or test, so dictionary_from: is required")
         if self.poses is not None and self.min_field_fraction:
             raise ValueError(f"min_field_fraction: the poses {self.poses!r} are given cameras, none can be redrawn")
+        if self.dictionary == "pool" and self.dictionary_from:
+            raise ValueError("dictionary: pool searches the dataset's own pool, but its dictionary comes from "
+                             f"dictionary_from {list(self.dictionary_from)}; leave dictionary out")
         return self
 
 
@@ -499,7 +511,8 @@ class TrainingProfile(TrainingSettings):
 
 class ProfileConfig(_Strict):
     """Overrides applied to every dataset: sizes for tests, laptops or the paper,
-    and the sizes of the bundled models (``training:``)."""
+    the sizes of the bundled models (``training:``) and the dictionary ``bench``
+    searches (``dictionary:``, for every dataset with an own pool)."""
 
     image_size: tuple[int, int] | None = None
     shard_size: int | None = Field(None, ge=1)
@@ -507,6 +520,7 @@ class ProfileConfig(_Strict):
     supersample: int | None = Field(None, ge=1, le=8)
     splits: SplitSizes | None = None
     training: TrainingProfile | None = None
+    dictionary: Dictionary | None = None
 
 
 class Config(_Strict):
@@ -699,6 +713,24 @@ class LoadedConfig:
                 f"known: {', '.join(self.config.profiles)}"
             )
         return self.config.profiles[profile].training or TrainingProfile()
+
+    def dictionary(self, dataset: str, profile: str | None = None) -> Dictionary:
+        """The dictionary ``bench`` searches for a dataset: the profile's ``dictionary:``, else the
+        dataset's, else ``split``. A dataset whose dictionary comes from others (``dictionary_from``)
+        or that is not in the file (a ``mixed-K`` label) always gets ``split`` here: its own
+        (mixed) dictionary.
+
+        Raises:
+            ConfigError: unknown profile.
+        """
+        if profile is not None and profile not in self.config.profiles:
+            raise ConfigError(f"{self.path}: profiles.{profile}: unknown profile {profile!r}; "
+                              f"known: {', '.join(self.config.profiles)}")
+        entry = self.config.datasets.get(dataset)
+        if entry is None or entry.dictionary_from:
+            return "split"
+        prof = self.config.profiles[profile] if profile is not None else ProfileConfig()
+        return prof.dictionary or entry.dictionary or "split"
 
     def _grid_pool(self, dataset: str, entry: DatasetConfig, prof: ProfileConfig, pool_size: int | None) -> int:
         """Pool size of a grid dataset: ``pool_size`` if given, else the entry's capped by the profile."""

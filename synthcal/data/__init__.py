@@ -6,5 +6,7 @@ model and real camera annotations (SCCvSD, BSD 2-Clause, licence beside them);
 """
 
 from synthcal.data.loaders import SplitDataset, StoreScene, load_split, load_splits, read_scene
+from synthcal.data.pool import LazyRows, load_pool_dictionary
 
-__all__ = ["StoreScene", "SplitDataset", "load_split", "load_splits", "read_scene"]
+__all__ = ["StoreScene", "SplitDataset", "LazyRows", "load_split", "load_splits", "load_pool_dictionary",
+           "read_scene"]

@@ -26,8 +26,10 @@ positions into ``.sources``, ``.source_stores`` and, per source, ``.source_scene
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -94,11 +96,13 @@ class SplitDataset(Dataset):
         mixed: whether this is a mixed dictionary.
         sources, source, source_stores: a mixed dictionary's provenance (else
             ``()``, None, ``()``).
+        pool: whether this is a pool dictionary (:mod:`synthcal.data.pool`: its
+            arrays are lazy :class:`synthcal.data.pool.LazyRows`, read on access).
     """
 
     def __init__(
         self,
-        arrays: dict[str, np.ndarray],
+        arrays: Mapping[str, Any],
         indices: np.ndarray,
         store: Path,
         split: str,
@@ -107,6 +111,7 @@ class SplitDataset(Dataset):
         sources: tuple[str, ...] = (),
         source: np.ndarray | None = None,
         source_stores: tuple[Path, ...] = (),
+        pool: bool = False,
     ) -> None:
         self.images = arrays["image"]
         self.semantics = arrays["semantic"]
@@ -119,6 +124,7 @@ class SplitDataset(Dataset):
         self.sources = sources
         self.source = source
         self.source_stores = source_stores
+        self.pool = pool
 
     @property
     def mixed(self) -> bool:
@@ -138,7 +144,7 @@ class SplitDataset(Dataset):
         return image, semantic, torch.from_numpy(self.homographies[k].copy())
 
     def __repr__(self) -> str:
-        kind = f"mixed from {', '.join(self.sources)}" if self.mixed else "own pool"
+        kind = f"mixed from {', '.join(self.sources)}" if self.mixed else "whole pool" if self.pool else "own pool"
         return f"SplitDataset({self.store.name}, {self.split}, seed {self.seed}, {len(self)} samples, {kind})"
 
 

@@ -41,11 +41,14 @@ __all__ = [
     "ECCEstimator",
     "one_hot",
     "match_templates",
+    "match_strided",
     "medoid_index",
     "ecc_warp",
 ]
 
 NUM_CLASSES = 4
+# Dictionary maps read per block in fit (a lazy pool dictionary is streamed).
+_TEMPLATE_BATCH = 1024
 
 
 # --- segmentation -----------------------------------------------------------------------
@@ -137,6 +140,33 @@ def match_templates(queries: np.ndarray, templates: np.ndarray, chunk: int = 256
     out = np.empty(len(queries), np.int64)
     for start in range(0, len(queries), chunk):
         out[start:start + chunk] = np.argmax(queries[start:start + chunk] @ templates.T, axis=1)
+    return out
+
+
+def match_strided(queries: np.ndarray, templates: np.ndarray, template_chunk: int = 2048) -> np.ndarray:
+    """:func:`match_templates` against class-id templates, expanded to one-hot a block at a time.
+
+    Memory: one block of ``template_chunk`` one-hot templates and its score matrix,
+    whatever the dictionary's size; the answer is :func:`match_templates`'s
+    (ties: the lowest index, kept across blocks by a strict comparison).
+
+    Args:
+        queries: (B, D) one-hot maps from :func:`one_hot`.
+        templates: (T, h, w) uint8 class ids at the queries' stride.
+        template_chunk: templates per block.
+
+    Returns:
+        (B,) int64 template indices.
+    """
+    best = np.full(len(queries), -np.inf, np.float32)
+    out = np.zeros(len(queries), np.int64)
+    for start in range(0, len(templates), template_chunk):
+        scores = queries @ one_hot(templates[start:start + template_chunk]).T  # (B, block)
+        position = np.argmax(scores, axis=1)
+        value = scores[np.arange(len(queries)), position]
+        better = value > best
+        best = np.where(better, value, best)
+        out = np.where(better, position + start, out)
     return out
 
 
@@ -253,16 +283,26 @@ class TemplateEstimator:
         self.segmenter = segmenter if segmenter is not None else ColourSegmenter()
         self.stride = int(stride)
         self.fit_segmenter = fit_segmenter
-        self.templates: np.ndarray | None = None
-        self.template_semantics: np.ndarray | None = None
+        self.templates: np.ndarray | None = None  # (T, h', w') uint8 strided class ids
+        self.template_semantics: Any = None
         self.template_homographies: np.ndarray | None = None
 
     def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
+        """Fit the segmenter; keep the dictionary's strided class ids and homographies.
+
+        The dictionary's maps are read ``_TEMPLATE_BATCH`` at a time and kept as
+        (T, ⌈H/stride⌉, ⌈W/stride⌉) uint8 class ids (a lazy pool dictionary is never
+        read whole at full size); ``template_semantics`` stays the dictionary's own
+        array (lazy or not), read per matched template by ECC.
+        """
         if self.fit_segmenter:
             self.segmenter.fit(train.images, train.semantics)
-        self.template_semantics = np.asarray(dictionary.semantics)
+        self.template_semantics = dictionary.semantics
         self.template_homographies = np.asarray(dictionary.homographies, np.float64)
-        self.templates = one_hot(self.template_semantics, self.stride)
+        s = self.stride
+        blocks = [np.asarray(dictionary.semantics[a:a + _TEMPLATE_BATCH])[:, ::s, ::s]
+                  for a in range(0, len(dictionary.semantics), _TEMPLATE_BATCH)]
+        self.templates = np.concatenate(blocks) if blocks else np.empty((0, 1, 1), np.uint8)
 
     def match(self, images: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Segment ``images`` and match them.
@@ -274,7 +314,7 @@ class TemplateEstimator:
         semantics = self.segmenter(np.asarray(images))
         return self.match_semantic(semantics), semantics
 
-    def _dictionary(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _dictionary(self) -> tuple[np.ndarray, Any, np.ndarray]:
         """``(templates, template_semantics, template_homographies)`` of the fitted dictionary."""
         if self.templates is None or self.template_semantics is None or self.template_homographies is None:
             raise RuntimeError(f"{type(self).__name__}: call fit() first")
@@ -283,7 +323,7 @@ class TemplateEstimator:
     def match_semantic(self, semantics: np.ndarray) -> np.ndarray:
         """(B,) indices of the templates nearest (MSE) to (B, H, W) class maps."""
         templates, _, _ = self._dictionary()
-        return match_templates(one_hot(semantics, self.stride), templates)
+        return match_strided(one_hot(semantics, self.stride), templates)
 
     def predict(self, images: np.ndarray) -> np.ndarray:
         return self.predict_semantic(self.segmenter(np.asarray(images)))

@@ -52,8 +52,12 @@ The option values are defined once, in :mod:`synthcal.config`.
     step-by-step runs that differ only in the STN or its loss train each of them
     once. Keys hash the arrays themselves, so a changed split is a new key; the
     ground-truth matches are keyed by the matching score and ``class_reduction``,
-    the Siamese by the matches themselves. The STN is never cached (every run
-    trains its own), so ``stn_template`` keys nothing shared.
+    the Siamese by the matches themselves; the dictionary's embedding by the
+    trained Siamese is cached too (``embedding/``, once per dictionary and
+    Siamese). The STN is never cached (every run trains its own), so
+    ``stn_template`` keys nothing shared. A lazy dictionary (the pool dictionary,
+    :mod:`synthcal.data.pool`) is streamed: reduced to the working resolution and
+    matched 512 templates at a time, never held at full size.
     :attr:`trained_stages` lists what the last :meth:`fit` trained rather than
     loaded, :attr:`history` their per-epoch mean losses. End-to-end training
     shares nothing.
@@ -64,7 +68,7 @@ The option values are defined once, in :mod:`synthcal.config`.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, TypedDict, TypeVar, cast
 
@@ -79,6 +83,7 @@ from synthcal.config import (
     MODELS,
     SEGMENTATIONS,
     TRAININGS,
+    ClassReduction,
     Loss,
     Matching,
     Model,
@@ -94,6 +99,7 @@ from synthcal.models import (
     UNet,
     device_from_name,
     match_ground_truth,
+    merge_matches,
     one_hot_maps,
 )
 from synthcal.training import (
@@ -132,6 +138,30 @@ def _choice(name: str, value: str, allowed: Sequence[_Option]) -> _Option:
         if value == option:
             return option
     raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+
+
+# Templates of a lazy (pool) dictionary read, reduced and matched per batch: bounds memory
+# (a batch of 512 maps at 256 × 144 encodes to ~230 MB in the ground-truth matching).
+_TEMPLATE_BATCH = 512
+
+
+def _row_batches(rows: Any, size: int) -> Iterator[tuple[int, np.ndarray]]:
+    """``(start, rows[start:start + size])`` of any array-like with ``len`` and slicing (a lazy one reads them)."""
+    for start in range(0, len(rows), size):
+        yield start, np.asarray(rows[start:start + size])
+
+
+def _streamed_match(queries: Tensor, templates: Any, score: str, reduction: ClassReduction,
+                    device: torch.device) -> Tensor:
+    """(Q,) ground-truth template index of (Q, H, W) class-id ``queries`` among (T, H, W) ``templates``
+    read in batches: the same as one :func:`match_ground_truth` over all (:func:`merge_matches`)."""
+    best = None
+    for start, rows in _row_batches(templates, _TEMPLATE_BATCH):
+        part = match_ground_truth(queries, torch.from_numpy(rows).to(device), score, class_reduction=reduction)
+        best = merge_matches(best, part, start)
+    if best is None:
+        raise ValueError("the dictionary is empty: no template to match")
+    return best.index.cpu()
 
 
 class _Common(TypedDict):
@@ -204,14 +234,20 @@ class PaperEstimator:
         work_size = tuple(self.settings.work_size or full_size)
         A = torch.from_numpy(resolution_matrix(full_size, work_size))
         images = np.asarray(train.images)[: len(semantics)] if self.uses_unet else None
-        templates = np.asarray(dictionary.semantics)
-        keys = {"train": digest(semantics, images if images is not None else 0, full_size, work_size),
-                "dictionary": digest(templates, np.asarray(dictionary.homographies))}
-        score, reduction = MATCHING_SCORES[self.matching], self.settings.class_reduction
-        match, _ = self.cache.cached("match", digest(keys["train"], keys["dictionary"], score, reduction), lambda: (
-            match_ground_truth(torch.from_numpy(semantics).to(self.device),
-                               torch.from_numpy(templates).to(self.device), score,
-                               class_reduction=reduction).index.cpu()))
+        homographies = np.asarray(dictionary.homographies, np.float64)
+        keys = {"train": digest(semantics, images if images is not None else 0, full_size, work_size)}
+        if isinstance(dictionary.semantics, np.ndarray):  # in memory (a split): as it always was
+            full = np.asarray(dictionary.semantics)
+            templates = reduce_class_maps(full, work_size)
+            keys["dictionary"] = digest(full, homographies)
+            match = self._match(semantics, keys, lambda queries, score, reduction: match_ground_truth(
+                queries, torch.from_numpy(full).to(self.device), score, class_reduction=reduction).index.cpu())
+        else:  # lazy (a pool dictionary): streamed, reduced batch by batch; never whole at full size
+            templates = torch.cat([reduce_class_maps(rows, work_size)
+                                   for _, rows in _row_batches(dictionary.semantics, _TEMPLATE_BATCH)])
+            keys["dictionary"] = digest("streamed", templates, homographies, full_size)
+            match = self._match(semantics, keys, lambda queries, score, reduction: _streamed_match(
+                queries, dictionary.semantics, score, reduction, self.device))
         keys["match"] = digest(match)
         scene_map, scene_frame = reduce_scene(scene.semantic, self.settings.scene_downsample)
         data = TrainingData(
@@ -219,13 +255,22 @@ class PaperEstimator:
             semantics=reduce_class_maps(semantics, work_size),
             homographies=A @ torch.from_numpy(np.asarray(train.homographies, np.float64)[: len(semantics)]),
             match=match,
-            templates=reduce_class_maps(templates, work_size),
-            template_homographies=A @ torch.from_numpy(np.asarray(dictionary.homographies, np.float64)),
+            templates=templates,
+            template_homographies=A @ torch.from_numpy(homographies),
             scene=scene_map,
             scene_frame=scene_frame,
             work_size=work_size,
         )
         return data, keys
+
+    def _match(self, semantics: np.ndarray, keys: dict[str, str],
+               compute: Callable[[Tensor, str, ClassReduction], Tensor]) -> Tensor:
+        """(K,) ground-truth template of each (K, H, W) train map, cached by the train and dictionary keys."""
+        score, reduction = MATCHING_SCORES[self.matching], self.settings.class_reduction
+        queries = torch.from_numpy(semantics).to(self.device)
+        match, _ = self.cache.cached("match", digest(keys["train"], keys["dictionary"], score, reduction),
+                                     lambda: compute(queries, score, reduction))
+        return cast(Tensor, match)
 
     def _log(self, stage: str) -> list[float]:
         """The per-epoch mean losses of a stage trained by this fit (:attr:`history`)."""
@@ -241,6 +286,13 @@ class PaperEstimator:
             module.load_state_dict(state)
         return module.to(self.device).eval()
 
+    def _embedding(self, siamese_key: str, dictionary_key: str, siamese: SiameseNet, data: TrainingData) -> Tensor:
+        """(T, D) the dictionary embedded by the trained Siamese, once per (dictionary, Siamese):
+        cached beside the stages (a pool dictionary of ~46,500 templates is worth keeping)."""
+        key = digest("embedding", siamese_key, dictionary_key, data.work_size)
+        embedding, _ = self.cache.cached("embedding", key, lambda: embed_templates(siamese, data, self.device).cpu())
+        return cast(Tensor, embedding)
+
     # --- fitting --------------------------------------------------------------------------
 
     def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
@@ -251,6 +303,7 @@ class PaperEstimator:
         common = _Common(batch_size=s.batch_size, lr=s.learning_rate, device=device, seed=self.seed,
                          progress=self.progress)
         unet: nn.Module | None
+        embedding: Tensor | None = None
         if self.training == "end-to-end":
             unet = self._unet() if self.uses_unet else ClassMapLogits()
             siamese, stn = self._siamese(), self._stn(data.work_size)
@@ -271,7 +324,8 @@ class PaperEstimator:
                                  self.seed)
             siamese = self._stage("siamese", siamese_key, self._siamese(), lambda m, log: train_siamese(
                 m, data, unet, s.siamese_epochs, log=log, **common))
-            templates = stn_templates(s.stn_template, data, siamese, unet, device)
+            embedding = self._embedding(siamese_key, keys["dictionary"], siamese, data)
+            templates = stn_templates(s.stn_template, data, siamese, unet, device, dictionary=embedding)
             stn = train_stn(self._stn(data.work_size), data, unet, self.loss, s.stn_epochs, log=self._log("stn"),
                             templates=templates, class_reduction=s.class_reduction, **common)
             self.trained_stages.append("stn")
@@ -279,7 +333,7 @@ class PaperEstimator:
             "unet": unet if self.uses_unet else None,
             "siamese": siamese.eval(),
             "stn": stn.eval(),
-            "embedding": embed_templates(siamese, data, device),
+            "embedding": embed_templates(siamese, data, device) if embedding is None else embedding.to(device),
             "templates": data.templates.to(device),
             "template_homographies": data.template_homographies.to(device),
             "A": resolution_matrix((train.semantics.shape[2], train.semantics.shape[1]), data.work_size),

@@ -50,7 +50,9 @@ class SplitLike(Protocol):
     """What ``fit`` may read of a split (train or dictionary): ``synthcal.data.SplitDataset`` or a stand-in.
 
     Read-only: the harness hands out arrays with ``writeable=False``. The arrays may
-    also be lazy array-likes that support slicing and ``numpy.asarray``.
+    also be lazy array-likes that support slicing and ``numpy.asarray``: the pool
+    dictionary (``bench --dictionary pool``, :mod:`synthcal.data.pool`) is one, the
+    whole pool outside train and test, to be read in slices rather than whole.
     """
 
     @property

@@ -24,6 +24,17 @@ Constructors that take them also get ``settings`` (the profile's
 resolved when the runs are expanded (``auto``: ``cuda`` where this process sees
 CUDA, else ``cpu``) and recorded only for estimators that take it.
 
+Dictionaries
+------------
+``Run.dictionary`` is ``split`` (the seed's drawn dictionary: the store's own, or
+the mixed one) or ``pool``: every pool sample outside the seed's stored train and
+test sets (:func:`synthcal.store.splits.pool_dictionary_indices`), handed to ``fit``
+as a lazy :func:`synthcal.data.load_pool_dictionary` and never capped by
+``limits``. A mixed dictionary has no pool dictionary: :func:`expand_runs` refuses
+one. ``pool`` is in the run's hash and id; ``split`` is left out of the hash, so
+runs recorded before the field existed keep their ids. Tables label pool runs
+``NAME (pool)``.
+
 Split sizes
 -----------
 ``limits`` (a profile's ``splits:``) caps what a run uses of the seed's stored
@@ -130,12 +141,19 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from synthcal.config import Loss, Matching, Segmentation, Training
-from synthcal.data import SplitDataset, StoreScene, load_split, read_scene
+from synthcal.config import DICTIONARIES, Dictionary, Loss, Matching, Segmentation, Training
+from synthcal.data import SplitDataset, StoreScene, load_pool_dictionary, load_split, read_scene
 from synthcal.estimators import SemanticEstimator, load_estimator, resolve_estimator
 from synthcal.eval.metrics import METRICS, evaluate, summarize
 from synthcal.store import StoreError, attributes, open_store
-from synthcal.store.splits import SplitError, drawn_seeds, read_mixed_dictionary, read_split_indices, store_spec
+from synthcal.store.splits import (
+    SplitError,
+    drawn_seeds,
+    pool_dictionary_indices,
+    read_mixed_dictionary,
+    read_split_indices,
+    store_spec,
+)
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent, dispatch
 
@@ -165,6 +183,9 @@ AXES = ("training", "loss", "matching", "segmentation")
 _NOT_HASHED = ("store",)
 # Run fields added after the first results were recorded: left out of the hash while None.
 _HASHED_WHEN_SET = ("device", "limits")
+# Run fields added later with a default: left out of the hash at that default (the runs recorded
+# before them were exactly those runs).
+_HASHED_UNLESS = {"dictionary": "split"}
 _H_COLUMNS = [f"h{r}{c}" for r in range(3) for c in range(3)]
 
 
@@ -187,6 +208,9 @@ class Run:
             taking one, else None).
         limits: the most ``train`` / ``test`` / ``dictionary`` samples used of the
             stored splits (module docstring, "Split sizes"); None: all.
+        dictionary: ``split`` (the seed's dictionary split, or the mixed one) or
+            ``pool`` (every pool sample outside the seed's train and test sets;
+            module docstring, "Dictionaries").
     """
 
     dataset: str
@@ -204,15 +228,19 @@ class Run:
     settings: dict[str, Any] | None = field(default=None, hash=False)
     device: str | None = None
     limits: dict[str, int] | None = field(default=None, hash=False)
+    dictionary: Dictionary = "split"
 
     @property
     def id(self) -> str:
         """Folder name: readable keys, then a hash of the whole run."""
         # Fields added later hash only when set, so that the runs they do not concern keep their ids.
         record = {k: v for k, v in asdict(self).items()
-                  if k not in _NOT_HASHED and not (k in _HASHED_WHEN_SET and v is None)}
+                  if k not in _NOT_HASHED and not (k in _HASHED_WHEN_SET and v is None)
+                  and not (k in _HASHED_UNLESS and v == _HASHED_UNLESS[k])}
         h = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:10]
-        keys = [self.dataset, self.model, *[getattr(self, a) for a in AXES if getattr(self, a)], f"s{self.seed}", h]
+        pool = ["pool"] if self.dictionary == "pool" else []
+        keys = [self.dataset, self.model, *[getattr(self, a) for a in AXES if getattr(self, a)], *pool,
+                f"s{self.seed}", h]
         return "_".join(k.replace("/", "-").replace(":", "-") for k in keys)
 
 
@@ -291,6 +319,7 @@ def expand_runs(
     segmentations: Sequence[Segmentation] = ("unet",),
     device: str = "auto",
     limits: dict[str, int] | None = None,
+    dictionary: Dictionary | dict[str, Dictionary] = "split",
 ) -> list[Run]:
     """The sweep grid, with axes collapsed where they do not apply.
 
@@ -301,10 +330,13 @@ def expand_runs(
         device: torch device name (``auto`` resolved here, :func:`resolve_device`).
         limits: a profile's split sizes, capping the stored splits (module
             docstring, "Split sizes"); None: the splits as stored.
+        dictionary: ``split`` or ``pool`` for every dataset, or per dataset label
+            (labels not in the dict: ``split``); module docstring, "Dictionaries".
         others: the sweep's values (module docstring).
 
     Raises:
-        SplitError: a missing store, or a seed whose splits are not drawn.
+        SplitError: a missing store, a seed whose splits are not drawn, or the pool
+            dictionary asked of a dataset with a mixed dictionary.
         EstimatorError: an estimator that cannot be resolved.
     """
     values: dict[str, Sequence[str]] = {"training": trainings, "loss": losses, "matching": matchings,
@@ -322,11 +354,31 @@ def expand_runs(
             raise SplitError(f"{store}: splits not drawn for seed(s) {', '.join(map(str, missing))}; run "
                              f"`synthcal split {store} --seeds {','.join(map(str, missing))}`")
         base = {"dataset": label, "store": str(store), "mixed": mixed, "store_hash": str(group.attrs["config_hash"]),
-                "limits": _store_limits(store, group, limits)}
+                "limits": _store_limits(store, group, limits),
+                "dictionary": _dataset_dictionary(label, store, mixed, dictionary)}
         for name in estimators:
             for run in _estimator_runs(name, base, values, **shared):
                 runs.setdefault(run.id, run)
     return list(runs.values())
+
+
+def _dataset_dictionary(label: str, store: Path, mixed: bool | None,
+                        dictionary: Dictionary | dict[str, Dictionary]) -> Dictionary:
+    """The dictionary a dataset label's runs search; refuses ``pool`` where the dictionary is mixed.
+
+    Raises:
+        SplitError: ``pool`` for a ``mixed-*`` label or a dataset without an own pool dictionary.
+    """
+    value = dictionary.get(label, "split") if isinstance(dictionary, dict) else dictionary
+    if value not in DICTIONARIES:
+        raise SplitError(f"--dictionary: unknown dictionary {value!r} (dataset {label!r}); "
+                         f"one of {', '.join(DICTIONARIES)}")
+    if value == "pool" and (mixed or not store_spec(open_store(store), store).own_dictionary):
+        raise SplitError(f"{store}: dictionary pool: dataset {label!r} uses a mixed dictionary (templates from "
+                         f"other datasets' pools); the pool dictionary is a store's own pool outside the seed's "
+                         f"train and test sets: bench {label!r} with --dictionary split, or the target's own "
+                         f"label with --dictionary pool")
+    return value
 
 
 def _estimator_runs(name: str, base: dict[str, Any], values: dict[str, Sequence[str]], seeds: Sequence[int],
@@ -388,8 +440,12 @@ def split_sizes(run: Run) -> dict[str, tuple[int, int]]:
     Raises:
         SplitError: a split or mixed dictionary that is not drawn.
     """
-    sizes = {}
+    sizes: dict[str, tuple[int, int]] = {}
     for split in ("train", "test", "dictionary"):
+        if split == "dictionary" and run.dictionary == "pool":  # never capped: the whole pool is the point
+            stored = len(pool_dictionary_indices(run.store, run.seed))
+            sizes[split] = (stored, stored)
+            continue
         if split == "dictionary" and _mixed_dictionary(run):
             stored = len(read_mixed_dictionary(run.store, run.seed).index)
         else:
@@ -417,7 +473,7 @@ def plan_lines(runs: Sequence[Run]) -> list[str]:
     """
     datasets: dict[str, dict[int, dict[str, tuple[int, int]]]] = {}
     for run in runs:
-        seeds = datasets.setdefault(run.dataset, {})
+        seeds = datasets.setdefault(_table_label(asdict(run)), {})
         if run.seed not in seeds:
             seeds[run.seed] = split_sizes(run)
     settings = next((run.settings for run in runs if run.settings), None)
@@ -541,6 +597,8 @@ def _load_split(run: Run, split: str, scene: StoreScene) -> SplitDataset:
     Raises:
         StoreError: the store or split cannot be read.
     """
+    if split == "dictionary" and run.dictionary == "pool":  # lazy, and never capped
+        return load_pool_dictionary(run.store, run.seed, scene)
     data = load_split(run.store, split, run.seed, run.mixed if split == "dictionary" else False, scene)
     keep = prefix_positions(len(data), (run.limits or {}).get(split), data.source)
     if len(keep) == len(data):
@@ -864,8 +922,9 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
         metrics ``iou``, ``iou_bg``, ``iou_weighted``, ``iou_part``, ``iou_whole``
         (means over scored test images, failures as 0; NaN for a metric the run's
         record predates), ``completeness``, ``n_images``, ``n_skipped``, ``status``, ``error`` (``""`` for a run
-        that is ok), ``run_id``, ``device`` and ``budget`` (:func:`training_budget`;
-        None for estimators that do not train). A damaged ``run.json`` is skipped with a
+        that is ok), ``run_id``, ``device``, ``budget`` (:func:`training_budget`;
+        None for estimators that do not train) and ``dictionary`` (``split``, or ``pool``:
+        then ``dataset`` reads ``NAME (pool)``). A damaged ``run.json`` is skipped with a
         :class:`DamagedRecordWarning` naming it.
     """
     folder = Path(results) / "runs"
@@ -879,7 +938,7 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
             continue
         run = record["run"]
         try:
-            row = {"dataset": run["dataset"], "model": run["model"], "training": run["training"], "loss": run["loss"],
+            row = {"dataset": _table_label(run), "model": run["model"], "training": run["training"], "loss": run["loss"],
                    "matching_score": run["matching"], "segmentation": run["segmentation"],
                    "profile": run["profile"], "seed": run["seed"], "estimator": run["estimator"]}
             summary = record["summary"]
@@ -890,12 +949,18 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
             warnings.warn(f"{path}: damaged run record skipped (no {error})", DamagedRecordWarning, stacklevel=2)
             continue
         row.update(status=record["status"], error=record.get("error") or "", run_id=record["id"],
-                   device=run.get("device"), budget=training_budget(record))
+                   device=run.get("device"), budget=training_budget(record), dictionary=run.get("dictionary", "split"))
         rows.append(row)
     columns = ["dataset", "model", "training", "loss", "matching_score", "segmentation", "profile", "seed",
                "estimator", *METRICS, "completeness", "n_images", "n_skipped", "status", "error", "run_id",
-               "device", "budget"]
+               "device", "budget", "dictionary"]
     return pd.DataFrame(rows, columns=columns)
+
+
+def _table_label(run: dict[str, Any]) -> str:
+    """A run's dataset label in tables: ``NAME (pool)`` for a pool-dictionary run, so that it
+    sits in a row of its own beside the same dataset's split-dictionary runs."""
+    return f"{run['dataset']} (pool)" if run.get("dictionary") == "pool" else str(run["dataset"])
 
 
 def training_budget(record: dict[str, Any]) -> str | None:

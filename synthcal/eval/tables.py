@@ -23,6 +23,7 @@ column             needed  meaning
                            (a fraction; shown "–" where missing)
 ``profile``        no      the profile the run was trained under (caption)
 ``segmentation``   no      ``unet`` or ``ground-truth`` (caption)
+``dictionary``     no      ``split`` or ``pool``: what the run searched (caption)
 ``budget``         no      the run's training budget in words
                            (:func:`synthcal.eval.harness.training_budget`; caption)
 =================  ======  ==========================================================
@@ -109,6 +110,9 @@ KEYS = ("dataset", "model", "training", "loss", "matching_score")
 PAIR_KEYS = (*KEYS, "segmentation", "profile")
 # The caption's words for a segmentation value.
 SEGMENTATION_WORDS = {"unet": "a UNet's segmentation", "ground-truth": "the true semantic maps (ground-truth)"}
+# The caption's words for a dictionary value (synthcal.eval.harness: Run.dictionary).
+DICTIONARY_WORDS = {"split": "the seed's drawn dictionary", "pool": "the whole pool outside the seed's train and test "
+                    "sets (rows NAME (pool))"}
 REQUIRED = ("dataset", "model", "seed")
 MISSING = "–"
 FORMATS = ("md", "latex", "csv")
@@ -288,7 +292,7 @@ def _conditions(results: pd.DataFrame, mixed: bool) -> dict[str, list[str]]:
     if "dataset" in results:
         results = results[results["dataset"].astype(str).str.startswith("mixed-") == mixed]
     return {"profile": _distinct(results, "profile"), "segmentation": _distinct(results, "segmentation"),
-            "budget": _distinct(results, "budget")}
+            "dictionary": _distinct(results, "dictionary"), "budget": _distinct(results, "budget")}
 
 
 # --- text ------------------------------------------------------------------------------
@@ -365,6 +369,8 @@ def _conditions_text(conditions: Mapping[str, list[str]]) -> str:
         parts.append("profile " + ", ".join(conditions["profile"]))
     if conditions.get("segmentation"):
         parts.append("segmentation: " + ", ".join(SEGMENTATION_WORDS.get(v, v) for v in conditions["segmentation"]))
+    if set(conditions.get("dictionary", ())) - {"split"}:  # said once some run searched the pool
+        parts.append("dictionary: " + " | ".join(DICTIONARY_WORDS.get(v, v) for v in conditions["dictionary"]))
     if conditions.get("budget"):
         parts.append("training: " + " | ".join(conditions["budget"]))
     return f" Ours: {'; '.join(parts)}." if parts else ""

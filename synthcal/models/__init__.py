@@ -29,7 +29,7 @@ from .losses import (
     topological_combination,
     warp_loss,
 )
-from .matching import MatchResult, match_ground_truth, pairwise_scores
+from .matching import MatchResult, match_ground_truth, merge_matches, pairwise_scores
 from .siamese import SiameseNet, contrastive_loss, nearest_embeddings
 from .stn import BaselineSTN, LocBlock, ProposedSTN, SelfAttention2d, compose_homography, h_bar_matrix
 from .unet import UNet, segmentation_loss
@@ -57,6 +57,7 @@ __all__ = [
     "ground_coordinates",
     "h_bar_matrix",
     "match_ground_truth",
+    "merge_matches",
     "mse_loss",
     "nearest_embeddings",
     "one_hot_maps",

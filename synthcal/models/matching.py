@@ -7,7 +7,9 @@ vectors; ``"mean"``: that divided by C). For MSE the two readings pick the same
 templates (a constant factor); for ``L_Top-MSE`` they may not (the β hinge). All pairs are scored
 with the expansion ``‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b``: one GEMM for MSE, one GEMM
 per patch for the topological score, then the same per-patch combination as the
-loss. Queries are processed in chunks so memory stays bounded.
+loss. Queries are processed in chunks, and templates too when asked
+(``template_chunk``, or :func:`merge_matches` over batches streamed from a store),
+so memory stays bounded for a dictionary of any size.
 
 Class-id maps
 -------------
@@ -52,7 +54,7 @@ from .losses import (
     topological_combination,
 )
 
-__all__ = ["MatchResult", "class_code", "pairwise_scores", "match_ground_truth"]
+__all__ = ["MatchResult", "class_code", "pairwise_scores", "match_ground_truth", "merge_matches"]
 
 SCORES = ("mse", "top_mse")
 
@@ -236,6 +238,7 @@ def match_ground_truth(
     score: str = "mse",
     *,
     query_chunk: int = 256,
+    template_chunk: int | None = None,
     grid: tuple[int, int] = GRID,
     alpha: float = ALPHA,
     beta: float = BETA,
@@ -246,13 +249,15 @@ def match_ground_truth(
 
     Memory: the encoded templates, ``T · D · H · W`` floats (``D = 3`` for class
     ids of 4 classes), plus a chunk of queries and a ``(query_chunk, T, N)``
-    block of patch scores.
+    block of patch scores; with ``template_chunk``, ``T`` is at most that (the
+    result is the same: :func:`merge_matches`).
 
     Args:
         queries: (Q, H, W) integer class ids or (Q, C, H, W) float maps.
         templates: (T, H, W) or (T, C, H, W), of the same kind.
         score: ``"mse"`` or ``"top_mse"``.
         query_chunk: queries scored per block.
+        template_chunk: templates encoded and scored per block (None: all at once).
         grid: patch grid of the topological score.
         alpha: neighbour weight of the topological score.
         beta: hinge threshold of the topological score.
@@ -263,6 +268,15 @@ def match_ground_truth(
         :class:`MatchResult` with (Q,) indices into ``templates`` and scores.
     """
     _check(queries, templates, score, class_reduction)
+    if template_chunk is not None and templates.shape[0] > template_chunk:
+        merged: MatchResult | None = None
+        for start in range(0, templates.shape[0], template_chunk):
+            part = match_ground_truth(queries, templates[start:start + template_chunk], score, query_chunk=query_chunk,
+                                      grid=grid, alpha=alpha, beta=beta, num_classes=num_classes,
+                                      class_reduction=class_reduction)
+            merged = merge_matches(merged, part, start)
+        assert merged is not None  # at least one block: templates.shape[0] > template_chunk
+        return merged
     size = (queries.shape[-2], queries.shape[-1])
     patches = grid if score == "top_mse" else (1, 1)
     t = _Encoded(templates, patches, num_classes)
@@ -277,3 +291,25 @@ def match_ground_truth(
     if not index:
         return MatchResult(torch.empty(0, dtype=torch.long), torch.empty(0))
     return MatchResult(torch.cat(index), torch.cat(best))
+
+
+def merge_matches(best: MatchResult | None, part: MatchResult, offset: int) -> MatchResult:
+    """The better of two matches per query: ``best`` over earlier templates, ``part`` over the
+    templates from ``offset`` on (its indices relative to ``offset``).
+
+    Ties keep ``best`` (the lower template index), so merging consecutive template
+    blocks in order gives :func:`match_ground_truth`'s answer over them all.
+
+    Args:
+        best: (Q,) the match so far, or None for the first block.
+        part: (Q,) the match within one block.
+        offset: the block's first template index.
+
+    Returns:
+        (Q,) :class:`MatchResult` with indices over all templates seen.
+    """
+    index = part.index + offset
+    if best is None:
+        return MatchResult(index, part.score)
+    better = part.score < best.score
+    return MatchResult(torch.where(better, index, best.index), torch.where(better, part.score, best.score))

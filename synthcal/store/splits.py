@@ -36,6 +36,7 @@ __all__ = [
     "open_source",
     "drawn_seeds",
     "read_split_indices",
+    "pool_dictionary_indices",
     "read_mixed_dictionary",
     "read_mixed_samples",
     "resolve_mixed_dictionary",
@@ -123,6 +124,26 @@ def read_split_indices(store: str | Path, split: str, seed: int) -> np.ndarray:
         raise SplitError(f"{store}: splits/seed-{seed}/{split}: dataset has no own {split} "
                          f"(its dictionary comes from other datasets: load it as the mixed dictionary)")
     return np.asarray(array_at(seed_group, split)[:])
+
+
+def pool_dictionary_indices(store: str | Path, seed: int) -> np.ndarray:
+    """The pool dictionary of a seed: every pool index in neither its train nor its test split.
+
+    The whole stored splits are left out (not a profile's capped prefix of them), so no
+    test or train sample is ever a template, whatever the caps.
+
+    Returns:
+        (N − n_train − n_test,) int64 ascending pool indices.
+
+    Raises:
+        SplitError: an unknown seed.
+    """
+    store = Path(store)
+    size = int(attributes(open_store(store))["N"])
+    keep = np.ones(size, bool)
+    for split in ("train", "test"):
+        keep[read_split_indices(store, split, seed)] = False
+    return np.flatnonzero(keep).astype(np.int64)
 
 
 @dataclass(frozen=True)

@@ -251,15 +251,18 @@ def embed_templates(siamese: SiameseNet, data: TrainingData, device: torch.devic
 
 @torch.no_grad()
 def retrieve_templates(siamese: SiameseNet, data: TrainingData, unet: nn.Module | None, device: torch.device,
-                       batch_size: int = 256) -> Tensor:
+                       batch_size: int = 256, dictionary: Tensor | None = None) -> Tensor:
     """(K,) int64 nearest dictionary template of every train item by ``siamese`` (eval mode), on the CPU.
 
     The Siamese reads what it reads at test time: the UNet's probabilities, or the
-    true one-hot maps when ``unet`` is None.
+    true one-hot maps when ``unet`` is None. ``dictionary``: the (T, D) template
+    embeddings by this Siamese when already computed (None: embedded here).
     """
     was_training = siamese.training
     siamese.eval()
-    dictionary = embed_templates(siamese, data, device, batch_size)
+    if dictionary is None:
+        dictionary = embed_templates(siamese, data, device, batch_size)
+    dictionary = dictionary.to(device)
     out = [torch.empty(0, dtype=torch.long)]
     for chunk in torch.arange(len(data)).split(batch_size):
         out.append(nearest_embeddings(siamese(input_maps(data, chunk, unet, device)), dictionary).index.cpu())
@@ -268,12 +271,15 @@ def retrieve_templates(siamese: SiameseNet, data: TrainingData, unet: nn.Module 
 
 
 def stn_templates(choice: StnTemplate, data: TrainingData, siamese: SiameseNet, unet: nn.Module | None,
-                  device: torch.device) -> Tensor:
-    """(K,) template each train item's STN input holds: ``retrieved`` by the frozen Siamese or ``ground-truth``."""
+                  device: torch.device, dictionary: Tensor | None = None) -> Tensor:
+    """(K,) template each train item's STN input holds: ``retrieved`` by the frozen Siamese or ``ground-truth``.
+
+    ``dictionary``: the (T, D) template embeddings by ``siamese``, if already computed.
+    """
     if choice == "ground-truth":
         return data.match
     if choice == "retrieved":
-        return retrieve_templates(siamese, data, unet, device)
+        return retrieve_templates(siamese, data, unet, device, dictionary=dictionary)
     raise ValueError(f"stn_template must be 'retrieved' or 'ground-truth'; got {choice!r}")
 
 

@@ -75,7 +75,8 @@ def test_shared_stages_are_trained_once_and_reused(splits, settings, tmp_path):
     first = fit(splits, settings, segmentation="unet", cache_dir=tmp_path)
     assert first.trained_stages == ["unet", "siamese", "stn"]
     files = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*.pt")}
-    assert {p.parent.name for p in files} == {"match", "unet", "siamese"}
+    # The dictionary's embedding by the trained Siamese is cached beside the stages (once per pair).
+    assert {p.parent.name for p in files} == {"match", "unet", "siamese", "embedding"}
 
     second = fit(splits, settings, name="baseline", segmentation="unet", loss="mse", cache_dir=tmp_path)
     assert second.trained_stages == ["stn"]  # same UNet and Siamese, another STN

@@ -391,3 +391,70 @@ def test_ctrl_c_stops_bench_with_130_and_a_rerun_resumes(data, tmp_path, monkeyp
     frame = collect_results(results)
     assert len(frame) == 2 and (frame["status"] == "ok").all()
     assert {name: (results / "runs" / name / "run.json").stat().st_mtime_ns for name in finished} == finished
+
+
+def test_bench_searches_the_whole_pool_with_dictionary_pool(data, tmp_path, capsys):
+    results = tmp_path / "results"
+    assert bench(data, results, "template", f"{RETRY}:SizeRecordingEstimator", seeds="0",
+                 extra=("--dictionary", "pool")) == 0
+    out = capsys.readouterr().out
+    # 48 samples, 24 train and 8 test: the other 16 are the templates, never capped by the profile (12).
+    assert "intersection-1 (pool) (seeds 0): train 24 of 24, test 8 of 8, dictionary 16 of 16" in out
+    assert "whole pool outside the seed's train and test sets" in out  # the table's caption says so
+    frame = collect_results(results)
+    assert (frame["status"] == "ok").all() and set(frame["dataset"]) == {"intersection-1 (pool)"}
+    assert (frame["dictionary"] == "pool").all() and (frame["iou"] > 0).all()
+    pool = set(range(48)) - set(read_split_indices(data / "intersection-1.zarr", "train", 0)) \
+        - set(read_split_indices(data / "intersection-1.zarr", "test", 0))
+    for run_id in frame["run_id"]:
+        record = record_of(results, run_id)
+        assert "_pool_" in run_id and record["run"]["dictionary"] == "pool"
+        assert record["sizes"]["dictionary"] == len(pool) == 16
+    recorder = frame[frame["model"] == "SizeRecordingEstimator"]["run_id"].iloc[0]
+    assert record_of(results, recorder)["history"]["dictionary"] == 16  # what the plug-in was handed
+    # The dictionary is part of a run's identity; split runs keep the ids they had before it existed.
+    split = expand_runs(data, ["intersection-1"], ["template"], [0], "smoke", device="cpu")[0]
+    whole = expand_runs(data, ["intersection-1"], ["template"], [0], "smoke", device="cpu", dictionary="pool")[0]
+    assert split.dictionary == "split" and "pool" not in split.id and split.id != whole.id
+    assert split.id.rsplit("_", 1)[1] == dataclasses_replace_hash(split)
+
+
+def dataclasses_replace_hash(run) -> str:
+    """The id hash of a run as computed before the dictionary field existed (no such key)."""
+    import dataclasses
+    import hashlib
+
+    record = {k: v for k, v in dataclasses.asdict(run).items()
+              if k not in ("store", "dictionary") and not (k in ("device", "limits") and v is None)}
+    return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:10]
+
+
+def test_the_pool_dictionary_is_refused_for_mixed_dictionaries(data, tmp_path, capsys):
+    code = main(["bench", "--data", str(data), "--datasets", "mixed-1", "--estimator", "template", "--seeds", "0",
+                 "--results", str(tmp_path), "--profile", "smoke", "--dictionary", "pool", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("synthcal: error: ") and len(err.strip().splitlines()) == 1
+    assert "intersection-1.zarr: dictionary pool: dataset 'mixed-1' uses a mixed dictionary" in err
+    assert "--dictionary split" in err and not (tmp_path / "runs").exists()
+
+
+def test_a_profile_or_dataset_may_ask_for_the_pool_dictionary(data, tmp_path, capsys):
+    config = yaml.safe_load((ROOT / "synthcal" / "datasets.yaml").read_text())
+    config["profiles"]["smoke"]["dictionary"] = "pool"
+    path = tmp_path / "datasets.yaml"
+    path.write_text(yaml.safe_dump(config))
+    results = tmp_path / "results"
+    assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "mixed-1", "--estimator", "identity",
+                 "--seeds", "0", "--results", str(results), "--profile", "smoke", "--config", str(path),
+                 "--quiet"]) == 0
+    # The profile's pool applies to datasets with an own pool; a mixed label keeps its mixed dictionary.
+    assert set(collect_results(results)["dataset"]) == {"intersection-1 (pool)", "mixed-1"}
+    capsys.readouterr()
+    config["profiles"]["smoke"]["dictionary"] = "all"
+    config["datasets"]["worldcup2014"]["dictionary"] = "pool"
+    path.write_text(yaml.safe_dump(config))
+    assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", "identity",
+                 "--results", str(results), "--config", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "profiles.smoke.dictionary" in err and "'all'" in err
+    assert "datasets.worldcup2014" in err and "dictionary: pool searches the dataset's own pool" in err

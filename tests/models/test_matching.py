@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from synthcal.models.losses import mse_loss, one_hot_maps, top_mse_loss
-from synthcal.models.matching import class_code, match_ground_truth, pairwise_scores
+from synthcal.models.matching import class_code, match_ground_truth, merge_matches, pairwise_scores
 
 SCORE_FN = {"mse": mse_loss, "top_mse": top_mse_loss}
 
@@ -98,3 +98,32 @@ def test_rejects_mixed_inputs():
         match_ground_truth(ids, one_hot_maps(ids))
     with pytest.raises(ValueError):
         match_ground_truth(ids, ids, "dice")
+
+
+@pytest.mark.parametrize("score", ["mse", "top_mse"])
+@pytest.mark.parametrize("reduction", ["sum", "mean"])
+def test_matching_in_template_chunks_equals_one_block(score, reduction):
+    """Chunked ground-truth matching (a large dictionary) gives the unchunked indices and scores,
+    ties included: duplicated templates in different chunks keep the first."""
+    generator = torch.Generator().manual_seed(3)
+    queries = torch.randint(0, 4, (11, 12, 16), generator=generator)
+    templates = torch.randint(0, 4, (23, 12, 16), generator=generator)
+    templates[17] = templates[2]  # a tie across chunks
+    templates[9] = queries[4]
+    templates[20] = queries[4]  # the same best twice: the lower index wins
+    whole = match_ground_truth(queries, templates, score, class_reduction=reduction)
+    for chunk in (1, 4, 7, 22):
+        part = match_ground_truth(queries, templates, score, template_chunk=chunk, class_reduction=reduction)
+        assert part.index.tolist() == whole.index.tolist()
+        # The squared errors are exact; Top-MSE's float combination may round 1 ulp apart by layout.
+        torch.testing.assert_close(part.score, whole.score, rtol=1e-6, atol=0)
+    assert whole.index[4] == 9
+    # By hand: merging blocks in order is the same.
+    merged = None
+    for start in range(0, 23, 5):
+        merged = merge_matches(merged, match_ground_truth(queries, templates[start:start + 5], score,
+                                                          class_reduction=reduction), start)
+    assert merged is not None and merged.index.tolist() == whole.index.tolist()
+    # And the brute-force minimum of the pairwise scores.
+    assert whole.index.tolist() == pairwise_scores(queries, templates, score, class_reduction=reduction
+                                                   ).argmin(1).tolist()

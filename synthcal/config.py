@@ -101,6 +101,8 @@ ClassReduction = Literal["sum", "mean"]
 # What ``synthcal bench`` searches: the seed's dictionary split, or every pool sample
 # outside the seed's train and test sets (README "The pool dictionary").
 Dictionary = Literal["split", "pool"]
+# Which RGB images a store holds: every sample's, or only those of drawn splits (synthcal.store.images).
+Images = Literal["all", "splits"]
 
 MODELS: tuple[Model, ...] = get_args(Model)
 TRAININGS: tuple[Training, ...] = get_args(Training)
@@ -314,6 +316,10 @@ class OsmSourceConfig(_Strict):
         return size
 
 
+# Keys of a PNG scene that an osm: scene takes from its source instead.
+_PNG_ONLY_KEYS = ("image", "semantic", "palette", "classes", "pixels_per_metre")
+
+
 class UserSceneConfig(_Strict):
     """A scene from two PNG files; paths are relative to the YAML file.
 
@@ -366,8 +372,7 @@ class UserSceneConfig(_Strict):
             if self.image is None or self.semantic is None:
                 raise ValueError("a scene needs image and semantic (two PNG files) or osm (an OpenStreetMap extract)")
             return self
-        clash = [key for key in ("image", "semantic", "palette", "classes", "pixels_per_metre")
-                 if key in self.model_fields_set]
+        clash = [key for key in _PNG_ONLY_KEYS if key in self.model_fields_set]
         if clash:
             raise ValueError(f"an osm scene takes its classes and scale from osm:, not {', '.join(clash)}")
         return self
@@ -377,6 +382,9 @@ class UserSceneConfig(_Strict):
         data: dict[str, Any] = handler(self)
         if self.osm is None:
             data.pop("osm", None)  # PNG scenes keep their configuration hash
+        else:  # what an osm scene does not take, so that the dump validates again (a store's attributes)
+            for key in _PNG_ONLY_KEYS:
+                data.pop(key, None)
         return data
 
 
@@ -393,7 +401,9 @@ class DatasetConfig(_Strict):
     ``min_field_fraction`` (0 ≤ f < 1) redraws grid cameras whose semantic map has
     fewer non-background pixels than that share. ``dictionary`` is what ``synthcal
     bench`` searches for this dataset (``split``, the default, or ``pool``); it
-    changes no stored byte.
+    changes no stored byte. ``images`` is ``all`` (the default: every sample's RGB
+    image is stored) or ``splits`` (images only for samples some drawn split uses;
+    :mod:`synthcal.store.images`).
     """
 
     scene: str
@@ -406,6 +416,7 @@ class DatasetConfig(_Strict):
     splits: SplitSizes | None = None
     min_field_fraction: float | None = Field(None, ge=0, lt=1)
     dictionary: Dictionary | None = None
+    images: Images | None = None
 
     @field_validator("dictionary_from", mode="before")
     @classmethod
@@ -512,7 +523,8 @@ class TrainingProfile(TrainingSettings):
 class ProfileConfig(_Strict):
     """Overrides applied to every dataset: sizes for tests, laptops or the paper,
     the sizes of the bundled models (``training:``) and the dictionary ``bench``
-    searches (``dictionary:``, for every dataset with an own pool)."""
+    searches (``dictionary:``, for every dataset with an own pool) and which images
+    stores keep (``images:``, overriding the datasets')."""
 
     image_size: tuple[int, int] | None = None
     shard_size: int | None = Field(None, ge=1)
@@ -521,6 +533,7 @@ class ProfileConfig(_Strict):
     splits: SplitSizes | None = None
     training: TrainingProfile | None = None
     dictionary: Dictionary | None = None
+    images: Images | None = None
 
 
 class Config(_Strict):
@@ -568,19 +581,28 @@ class DatasetSpec(_Strict):
     split_seeds: tuple[int, ...]
     mixed_sources: tuple[str, ...] = ()
     own_dictionary: bool = True
+    images: Images = "all"
+
+    def stored_config(self) -> dict[str, Any]:
+        """The ``config`` attribute a store records: ``images`` left out when ``all``
+        (stores of the default stay byte-identical to those made before the option)."""
+        return self.model_dump(mode="json", exclude={"images"} if self.images == "all" else set())
 
     def config_hash(self) -> str:
         """SHA-256 of the canonical JSON of what determines the pool's arrays.
 
         Split sizes, seeds and dictionary sources are left out: splits are drawn
         later, inside the store, and changing them must not invalidate a generated
-        pool. ``poses`` is left out when unset, so grid datasets keep their hash.
+        pool. ``poses`` is left out when unset, so grid datasets keep their hash;
+        ``images`` when ``all``, so default stores keep theirs.
         A store records the hash of the spec whose relative grid is made absolute
         at the scene's anchor (``synthcal.generate.pipeline.anchored_spec``).
         """
         exclude = {"splits", "split_seeds", "mixed_sources", "own_dictionary"}
         if self.poses is None:
             exclude.add("poses")
+        if self.images == "all":
+            exclude.add("images")
         pool = self.model_dump(mode="json", exclude=exclude)
         text = json.dumps(pool, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
@@ -688,6 +710,7 @@ class LoadedConfig:
             split_seeds=d.split_seeds,
             mixed_sources=entry.dictionary_from or cfg.mixed_dictionaries.get(dataset, ()),
             own_dictionary=entry.dictionary_from is None,
+            images=prof.images or entry.images or "all",
         )
         if spec.grid is None:
             return spec

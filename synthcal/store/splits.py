@@ -55,7 +55,8 @@ def store_spec(group: zarr.Group, path: Path) -> DatasetSpec:
     try:
         return DatasetSpec.model_validate(group.attrs["config"])
     except (KeyError, ValueError) as exc:
-        raise SplitError(f"{path}: attribute 'config' missing or unreadable ({exc})") from None
+        reason = " ".join(str(exc).split())  # pydantic's messages span lines; an error is one
+        raise SplitError(f"{path}: attribute 'config' missing or unreadable ({reason})") from None
 
 
 def source_store_path(store: Path, source: str) -> Path:

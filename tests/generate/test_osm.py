@@ -202,6 +202,9 @@ def test_generate_and_scene_from_a_yaml_entry(osm_file, tmp_path, capsys):
     assert source["sha256"] == hashlib.sha256(osm_file.read_bytes()).hexdigest()
     assert source["center"] == list(CENTER) and source["size_m"] == [60.0, 80.0]
     assert source["licence"] == "ODbL-1.0" and source["attribution"] == "© OpenStreetMap contributors"
+    # The store's recorded configuration reads back: splits can be drawn from it.
+    store = str(tmp_path / "out" / "my-junction.zarr")
+    assert main(["split", store, "--seeds", "0", "--train", "2", "--test", "2", "--dictionary", "2"]) == 0
     assert main(["scene", "my-junction", "-o", str(tmp_path / "scene.png"), "--config", str(config)]) == 0
     assert cv2.imread(str(tmp_path / "scene.png")) is not None
 

@@ -182,7 +182,8 @@ def _print_draw(result: DrawResult) -> None:
     """One line per store drawn by ``split`` / ``generate --splits``."""
     drawn = ", ".join(map(str, result.drawn)) or "none"
     unchanged = f"; unchanged: {', '.join(map(str, result.unchanged))}" if result.unchanged else ""
-    print(f"{result.store}  splits drawn for seeds {drawn}{unchanged}")
+    rendered = f"; {result.rendered} image(s) rendered" if result.rendered else ""
+    print(f"{result.store}  splits drawn for seeds {drawn}{unchanged}{rendered}")
     if result.note:
         print(f"  note: {result.note}")
 
@@ -264,6 +265,11 @@ def _cmd_info(args: argparse.Namespace) -> None:
     print(f"store        {args.store}  ({'complete' if attrs.get('complete') else 'INCOMPLETE'})")
     print(f"dataset      {attrs['dataset']}  ({attrs['format_version']})")
     print(f"samples      {attrs['N']} at {width} × {height}, {attrs['shard_size']} per shard, seed {attrs['seed']}")
+    if isinstance(images := attrs.get("images"), dict):  # images: splits (absent: every image stored)
+        print(f"images       splits: {images.get('rendered')} of {attrs['N']} rendered"
+              f"{' (rendering unfinished: rerun `synthcal split`)' if images.get('state') == 'rendering' else ''}")
+    else:
+        print("images       all")
     print(f"scene        {scene['name']}: {', '.join(f'{i} {c}' for i, c in enumerate(scene['classes']))}")
     scene_height, scene_width = array_at(group, "scene/semantic").shape
     print(f"scene size   {scene_width} × {scene_height} px, "

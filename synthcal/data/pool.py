@@ -26,6 +26,7 @@ import zarr
 
 from synthcal.data.loaders import SplitDataset, StoreScene, read_scene
 from synthcal.store import array_at, open_store
+from synthcal.store.images import check_rendered
 from synthcal.store.shards import read_rows
 from synthcal.store.splits import pool_dictionary_indices
 
@@ -69,7 +70,11 @@ class LazyRows:
         return self.shape[0]
 
     def _read(self, rows: np.ndarray) -> np.ndarray:
-        out = read_rows(self._array(), self.indices[rows])
+        array = self._array()
+        if self.name == "image":  # an images: splits store: never zeros for an image not rendered
+            check_rendered(zarr.open_group(zarr.storage.LocalStore(self.store, read_only=True), mode="r",
+                                           zarr_format=3), self.indices[rows], self.store)
+        out = read_rows(array, self.indices[rows])
         out.flags.writeable = False
         return out
 

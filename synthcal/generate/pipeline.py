@@ -56,7 +56,8 @@ from synthcal.store import (
     store_lock,
     write_samples,
 )
-from synthcal.store.shards import ShardLayout
+from synthcal.store.images import IMAGES_ATTR, images_attribute
+from synthcal.store.shards import ShardLayout, write_shard
 from synthcal.utils.atomic import atomic_write, remove_temporaries
 from synthcal.utils.dispatch import check_scheduler, dispatch
 from synthcal.utils.progress import show_progress
@@ -208,28 +209,38 @@ def sample_rng(seed: int | tuple[int, ...], index: int) -> np.random.Generator:
 
 
 def render_samples(
-    scene: Scene, homographies: np.ndarray, first_index: int, spec: DatasetSpec
+    scene: Scene, homographies: np.ndarray, first_index: int, spec: DatasetSpec,
+    indices: np.ndarray | None = None, images: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Render consecutive samples ``first_index, first_index + 1, …``.
+    """Render consecutive samples ``first_index, first_index + 1, …`` (or the pool samples ``indices``).
+
+    A sample's bytes depend only on the spec, its homography and its index (its
+    appearance stream :func:`sample_rng`), so rendering it alone, later, gives the
+    bytes a full render gives (``images: splits`` stores rely on it).
+
+    Args:
+        indices: (K,) the samples' pool indices (default: consecutive from ``first_index``).
+        images: False: semantic maps only (the returned images are then (0, H, W, 3)).
 
     Returns:
         images (K, H, W, 3) uint8 and semantic maps (K, H, W) uint8.
     """
     width, height = spec.image_size
+    numbers = first_index + np.arange(len(homographies)) if indices is None else np.asarray(indices, np.int64)
     appearance = Appearance(**spec.appearance.model_dump())
-    images = np.empty((len(homographies), height, width, 3), np.uint8)
+    rgb = np.empty((len(homographies) if images else 0, height, width, 3), np.uint8)
     semantics = np.empty((len(homographies), height, width), np.uint8)
     # Stage by stage rather than sample by sample: each loop keeps one bird's-eye
     # array hot in the cache (≈ 10 % faster than interleaving them).
-    for k, H in enumerate(homographies):
-        images[k] = render_image(scene.image, H, spec.image_size, spec.supersample)
+    for k in range(len(rgb)):
+        rgb[k] = render_image(scene.image, homographies[k], spec.image_size, spec.supersample)
     on_scene = np.empty((len(homographies), height, width), bool)
     for k, H in enumerate(homographies):
         semantics[k], on_scene[k] = render_semantic_and_mask(scene.semantic, H, spec.image_size)
-    for k, H in enumerate(homographies):  # off-scene pixels end black, as in the semantic map
-        apply_appearance_on_ground(images[k], H, appearance, sample_rng(spec.pool_entropy, first_index + k),
+    for k in range(len(rgb)):  # off-scene pixels end black, as in the semantic map
+        apply_appearance_on_ground(rgb[k], homographies[k], appearance, sample_rng(spec.pool_entropy, int(numbers[k])),
                                    on_scene[k])
-    return images, semantics
+    return rgb, semantics
 
 
 @dataclass(frozen=True)
@@ -251,13 +262,17 @@ def run_shard(task: ShardTask) -> int:
     """Render and write one shard, then mark it done; returns its sample count."""
     cv2.setNumThreads(1)  # one process per core: OpenCV's own threads would oversubscribe
     scene = load_scene(task.spec)
-    images, semantics = render_samples(scene, task.homographies, task.start, task.spec)
-    write_samples(task.layouts, task.shard, images, semantics)
+    with_images = task.spec.images == "all"  # images: splits renders images when splits are drawn
+    images, semantics = render_samples(scene, task.homographies, task.start, task.spec, images=with_images)
+    if with_images:
+        write_samples(task.layouts, task.shard, images, semantics)
+    else:
+        write_shard(task.layouts["semantic"], task.shard, semantics)
     # The marker holds each sample's non-background pixel count: the store's "foreground" attribute.
     counts = np.count_nonzero(semantics.reshape(len(semantics), -1), axis=1)
     with atomic_write(task.done_marker()) as marker:
         marker.write_text(json.dumps(counts.tolist()))
-    return len(images)
+    return len(semantics)
 
 
 def _foreground(tasks: list[ShardTask], spec: DatasetSpec) -> dict | None:
@@ -311,7 +326,8 @@ def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
         "shard_size": spec.shard_size,
         "software": software_versions(),
         "config_hash": spec.config_hash(),
-        "config": spec.model_dump(mode="json"),
+        "config": spec.stored_config(),
+        **({IMAGES_ATTR: images_attribute(0)} if spec.images == "splits" else {}),
         "complete": False,
     }
 
@@ -332,7 +348,7 @@ def _prepare_partial(spec: DatasetSpec, scene: Scene, partial: Path, progress: P
     shutil.rmtree(scratch, ignore_errors=True)
     try:
         create_store(scratch, _attributes(spec, scene), spec.image_size, spec.shard_size,
-                     homographies, camera, scene.image, scene.semantic)
+                     homographies, camera, scene.image, scene.semantic, images_splits=spec.images == "splits")
     except BaseException:  # disk full, Ctrl-C: leave no skeleton behind
         shutil.rmtree(scratch, ignore_errors=True)
         raise

@@ -26,6 +26,11 @@ store's lock (:func:`synthcal.store.store_lock`, the one ``generate`` holds), an
 sweeps away the scratch folders of a writer that was killed. Index arrays end in
 the ``crc32c`` codec, as every array of the store does.
 
+**Images.** In an ``images: splits`` store, drawing then renders the images the
+splits use that the store lacks (:mod:`synthcal.generate.images`), still under the
+lock, and those a mixed dictionary takes from ``images: splits`` sources, under
+each source's lock.
+
 Example
 -------
 >>> import numpy as np
@@ -50,7 +55,8 @@ import numpy as np
 import zarr
 
 from synthcal.config import SplitSizes
-from synthcal.store import CHECKSUMMED_INDEX, store_lock
+from synthcal.generate.images import mixed_uses, render_missing_images
+from synthcal.store import CHECKSUMMED_INDEX, image_mode, store_lock
 from synthcal.store.format import open_store
 from synthcal.store.splits import (
     LAYOUT_VERSION,
@@ -169,12 +175,15 @@ class DrawResult:
         drawn: seeds written (new, or with a changed recipe).
         unchanged: seeds already there with the same recipe.
         note: why a mixed dictionary was not drawn, or None.
+        rendered: images rendered for an ``images: splits`` store (and its
+            mixed dictionary's ``images: splits`` sources); 0 otherwise.
     """
 
     store: Path
     drawn: tuple[int, ...]
     unchanged: tuple[int, ...]
     note: str | None = None
+    rendered: int = 0
 
 
 def _fixed_sets(group: zarr.Group) -> dict[str, np.ndarray]:
@@ -301,7 +310,24 @@ def _draw_locked(store: Path, seeds: Sequence[int] | None, sizes: SplitSizes | N
         mixed_part = (*mixed_arrays[seed], _mixed_attrs(sources, hashes)) if has_mixed else None
         _write_seed(store, seed, recipe, sets[seed], mixed_part)
         drawn.append(seed)
-    return DrawResult(store, tuple(drawn), tuple(unchanged), note)
+    return DrawResult(store, tuple(drawn), tuple(unchanged), note, _render_used(store))
+
+
+def _render_used(store: Path) -> int:
+    """Render the images the drawn splits use and an ``images: splits`` store lacks (:mod:`synthcal.generate.images`).
+
+    The store's own splits under its lock (held by the caller); a mixed dictionary's
+    templates in their source stores, each under its own lock.
+    """
+    count = render_missing_images(store)
+    group = zarr.open_group(zarr.storage.LocalStore(store, read_only=True), mode="r", zarr_format=3)
+    for source, indices in mixed_uses(store, group).items():
+        if source.resolve() == store.resolve() or not (source / "zarr.json").is_file():
+            continue
+        if image_mode(zarr.open_group(zarr.storage.LocalStore(source, read_only=True), mode="r").attrs) == "splits":
+            with store_lock(source):
+                count += render_missing_images(source, indices)
+    return count
 
 
 class SplitsResized(UserWarning):

@@ -3,6 +3,7 @@
 * :mod:`synthcal.store.format` — creating, opening and reading a store;
 * :mod:`synthcal.store.shards` — whole shard files written and read byte for byte
   as Zarr's sharding codec lays them out;
+* :mod:`synthcal.store.images` — which RGB images a store holds (``images: all | splits``);
 * :mod:`synthcal.store.lock` — one writer per store (an exclusive ``flock``);
 * :mod:`synthcal.store.verify` — reading a whole store back, checksums and all;
 * :mod:`synthcal.store.splits` — reading the per-seed splits a store holds (drawing
@@ -30,6 +31,7 @@ from synthcal.store.format import (
     software_versions,
     write_samples,
 )
+from synthcal.store.images import ImagesNotRendered, check_rendered, image_mode, rendered_mask
 from synthcal.store.lock import lock_path, store_lock
 from synthcal.store.splits import (
     SPLIT_NAMES,
@@ -78,5 +80,9 @@ __all__ = [
     "source_store_path",
     "store_spec",
     "verify_store",
+    "ImagesNotRendered",
+    "check_rendered",
+    "image_mode",
+    "rendered_mask",
     "Report",
 ]

@@ -10,6 +10,7 @@ Layout (normative names)::
     scene/image         (Hs, Ws, 3)  uint8      the bird's-eye RGB
     scene/semantic      (Hs, Ws)     uint8      the bird's-eye class map
     splits/...                                  written by synthcal.generate.splits
+    image_rendered      (N,)         uint8      only with ``images: splits``: 1 where the image is stored
 
 Group attributes record the format version, the scene, the grid, ``N``, the seed,
 the image size, ``focal_reference_width``, software versions and the hash of the
@@ -25,6 +26,15 @@ or truncated shard is an error naming the file rather than zeros;
 :mod:`synthcal.store.verify` checks everything. Stores of format
 ``synthcal-store/1`` (no chunk checksums, no manifest) still read, with a
 :class:`LegacyStoreWarning`.
+
+Images only where used (``images: splits``, :mod:`synthcal.store.images`): the
+``image`` array then holds chunks only for the samples some drawn split uses; the
+``images`` attribute (``mode``, ``rendered``, ``state``) and the small per-sample
+array ``image_rendered`` say which, and reading another sample's image raises
+:class:`~synthcal.store.images.ImagesNotRendered`. The manifest covers the ``image``
+files present; drawing splits that render more images rewrites those shard files and
+then the manifest's ``image`` entry. A store without the ``images`` attribute holds
+every image (``images: all``, the default, byte-identical to stores made before).
 
 Atomicity: every file is written under a temporary name and renamed (by Zarr's
 local store, or by :func:`synthcal.store.shards.write_shard` for the per-sample
@@ -47,6 +57,7 @@ import zarr
 from zarr.codecs import BloscCodec, Crc32cCodec, ZstdCodec
 
 from synthcal.store.errors import CorruptStore, StoreError
+from synthcal.store.images import PRESENCE_ARRAY, check_rendered, images_rendering
 from synthcal.store.shards import ShardLayout, read_rows, shard_layout, write_shard
 
 __all__ = [
@@ -130,6 +141,7 @@ def create_store(
     camera: dict[str, np.ndarray],
     scene_image: np.ndarray,
     scene_semantic: np.ndarray,
+    images_splits: bool = False,
 ) -> zarr.Group:
     """Create a store with its per-sample metadata; images come shard by shard.
 
@@ -141,6 +153,7 @@ def create_store(
         homography: (N, 3, 3) float64.
         camera: ``CAMERA_FIELDS`` as (N,) float64 and ``grid_index`` as (N,) int64.
         scene_image: (Hs, Ws, 3) uint8; scene_semantic: (Hs, Ws) uint8.
+        images_splits: also create ``image_rendered`` (all 0) for an ``images: splits`` store.
 
     Returns:
         the open group.
@@ -160,6 +173,9 @@ def create_store(
     for name, array in (("scene/image", scene_image), ("scene/semantic", scene_semantic)):
         group.create_array(name, shape=array.shape, chunks=array.shape, dtype="uint8",
                            compressors=CHECKSUMMED, fill_value=0)[:] = array
+    if images_splits:
+        group.create_array(PRESENCE_ARRAY, shape=(count,), chunks=(max(count, 1),), dtype="uint8",
+                           compressors=CHECKSUMMED_INDEX, fill_value=0)
     return group
 
 
@@ -212,8 +228,8 @@ def file_crc32c(path: Path) -> str:
     return checksum.hexdigest().decode()
 
 
-def manifest(path: Path) -> dict[str, Any]:
-    """The manifest of a store's :data:`MANIFEST_ARRAYS`, from the files on disk.
+def manifest(path: Path, names: tuple[str, ...] = MANIFEST_ARRAYS) -> dict[str, Any]:
+    """The manifest of a store's :data:`MANIFEST_ARRAYS` (or of the arrays ``names``), from the files on disk.
 
     Returns:
         ``{array: {"shards": n, "files": {"c/0/0/0/0": {"size": bytes, "crc32c": "8 hex"}}}}``;
@@ -221,7 +237,7 @@ def manifest(path: Path) -> dict[str, Any]:
     """
     group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r", zarr_format=3)
     out: dict[str, Any] = {}
-    for name in MANIFEST_ARRAYS:
+    for name in names:
         array = array_at(group, name)
         folder = path / name
         files = {p.relative_to(folder).as_posix(): {"size": p.stat().st_size, "crc32c": file_crc32c(p)}
@@ -301,6 +317,8 @@ def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:
         if not isinstance(recorded, dict):
             raise CorruptStore(f"{path}/zarr.json: a complete store without its 'manifest' attribute")
         problems = check_manifest(path, recorded)
+        if images_rendering(group.attrs):  # images being added (or a renderer killed): it rewrites their entry
+            problems = [p for p in problems if not p.startswith(f"{path / 'image'}/")]
         if problems:
             raise CorruptStore("; ".join(problems) + f" (run `synthcal verify {path}`)")
     return group
@@ -312,5 +330,9 @@ def read_samples(group: zarr.Group, index: np.ndarray) -> dict[str, np.ndarray]:
     Returns:
         ``image`` (K, H, W, 3) uint8, ``semantic`` (K, H, W) uint8 and
         ``homography`` (K, 3, 3) float64, in the order of ``index``.
+
+    Raises:
+        ImagesNotRendered: an ``images: splits`` store without some of these images.
     """
+    check_rendered(group, index)
     return {name: read_rows(array_at(group, name), index) for name in ("image", "semantic", "homography")}

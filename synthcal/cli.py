@@ -413,8 +413,13 @@ def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> No
     _print_tables(frame, None, "md", False)
 
 
+# The reading tables show by default: synthcal.eval.metrics.DEFAULT_READING (a test checks they agree;
+# the parser does not import the metrics module, which pulls in OpenCV).
+DEFAULT_METRIC = "iou_weighted"
+
+
 def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool,
-                  metric: str = "iou") -> None:
+                  metric: str = DEFAULT_METRIC) -> None:
     """Print the tables of a results frame, one per segmentation / profile in it.
 
     ``layout`` None picks ``models`` for own-dictionary datasets and ``mixed`` for
@@ -576,7 +581,7 @@ def _cmd_plot(args: argparse.Namespace) -> None:
     frame = collect_results(args.results)
     if frame.empty:
         raise _UserError(f"{args.results}: no finished runs")
-    print(plot_iou(frame, args.output / "iou.png"))
+    print(plot_iou(frame, args.output / "iou.png", DEFAULT_METRIC))
     for dataset in dict.fromkeys(frame["dataset"]):
         print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count))
 
@@ -794,9 +799,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md", help="table format (default md)")
     p.add_argument("--compare-paper", action="store_true",
                    help="add the published figures (for each reading of the paper's IoU: iou, iou_bg, iou_weighted)")
-    p.add_argument("--metric", default="iou",
-                   help="iou (default; mean over classes 1-3), iou_bg (classes 0-3), iou_weighted (sklearn's "
-                        "weighted Jaccard, as the public re-implementation of Sha et al.), iou_part, iou_whole")
+    p.add_argument("--metric", default=DEFAULT_METRIC,
+                   help="iou_weighted (default: sklearn's weighted Jaccard over classes 0-3, as the public "
+                        "re-implementation of Sha et al.; docs/reproduction.md says why), iou (mean over classes "
+                        "1-3), iou_bg (classes 0-3), iou_part, iou_whole")
     p.add_argument("--paired", nargs=2, default=None, metavar=("A", "B"),
                    help="instead of the tables: per dataset and loss (and other settings), the mean ± std over "
                         "seeds of the per-seed difference A − B of two models trained on the same split, the "

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from synthcal.cli import main
+from synthcal.cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -126,3 +126,11 @@ def test_unknown_dataset(tmp_path, capsys):
     code, err, out = run(tmp_path, base_config(), "intersection-9", capsys=capsys)
     assert code == 2 and "intersection-9" in err
     assert_nothing_written(out)
+
+
+def test_the_default_metric_is_the_documented_reading():
+    from synthcal.cli import DEFAULT_METRIC
+    from synthcal.eval.metrics import DEFAULT_READING, READINGS
+
+    assert DEFAULT_METRIC == DEFAULT_READING and DEFAULT_READING in READINGS
+    assert build_parser().parse_args(["table", "results"]).metric == DEFAULT_READING

@@ -274,7 +274,9 @@ def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
         run = {"dataset": row["dataset"], "model": row["model"], "estimator": estimator, "seed": row["seed"],
                "training": row["training"], "loss": row["loss"], "matching": row["matching_score"],
                "segmentation": None if pd.isna(row["training"]) else row["segmentation"], "profile": "quick"}
-        summary = {"iou": row["iou"], "completeness": 1.0, "n_images": 8, "iou_part": row["iou"] / 2}
+        # The default reading (iou_weighted) carries the same figures as iou here.
+        summary = {"iou": row["iou"], "iou_weighted": row["iou"], "completeness": 1.0, "n_images": 8,
+                   "iou_part": row["iou"] / 2}
         (folder / "run.json").write_text(json.dumps({"run": run, "id": run_id, "status": "ok", "summary": summary}))
     assert main(["table", str(tmp_path), "--paired", "proposed", "baseline"]) == 0  # baseline: sha2020's estimator
     lines = capsys.readouterr().out.splitlines()

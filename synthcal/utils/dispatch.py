@@ -191,8 +191,14 @@ def _on_processes(fn: Callable[[T], R], tasks: Sequence[T], workers: int) -> Ite
 def _terminate(pool: ProcessPoolExecutor) -> None:
     """Stop a pool now: cancel its queued tasks and terminate its workers mid-task."""
     processes = list((getattr(pool, "_processes", None) or {}).values())  # Python ≥ 3.14: terminate_workers()
+    manager = getattr(pool, "_executor_manager_thread", None)  # shutdown() forgets it
     for process in processes:
         process.terminate()
     pool.shutdown(wait=False, cancel_futures=True)
     for process in processes:
         process.join(timeout=5)
+    # The pool's manager thread notices the dead workers and closes its wake-up pipe. Python
+    # < 3.12 writes to that pipe at exit without a lock, so an exit racing the close prints an
+    # "OSError: Bad file descriptor" traceback after our one-line message: wait for it here.
+    if manager is not None:
+        manager.join(timeout=5)

@@ -550,13 +550,19 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 1 if len(failed) else 0
 
 
+def _check_metric(name: str) -> None:
+    """``--metric`` of ``table`` and ``plot``: one of :data:`synthcal.eval.metrics.METRICS`."""
+    from synthcal.eval.metrics import METRICS
+
+    if name not in METRICS:
+        raise _UserError(f"--metric: unknown metric {name!r}; one of {', '.join(METRICS)}")
+
+
 def _cmd_table(args: argparse.Namespace) -> None:
     from synthcal.eval.harness import collect_results
-    from synthcal.eval.metrics import METRICS
     from synthcal.eval.tables import failed_runs
 
-    if args.metric not in METRICS:
-        raise _UserError(f"--metric: unknown metric {args.metric!r}; one of {', '.join(METRICS)}")
+    _check_metric(args.metric)
     if not args.results.is_dir():
         raise _UserError(f"{args.results}: no such results folder")
     frame = collect_results(args.results)
@@ -578,15 +584,17 @@ def _cmd_plot(args: argparse.Namespace) -> None:
     from synthcal.eval.harness import collect_results
     from synthcal.eval.plots import plot_iou, plot_overlays
 
+    _check_metric(args.metric)
     frame = collect_results(args.results)
     if frame.empty:
         raise _UserError(f"{args.results}: no finished runs")
-    print(plot_iou(frame, args.output / "iou.png", DEFAULT_METRIC))
+    print(plot_iou(frame, args.output / "iou.png", args.metric))
     for dataset in dict.fromkeys(frame["dataset"]):
-        print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count))
+        print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count,
+                            value=args.metric))
 
 
-# = synthcal.eval.harness.DEFAULT_TIMEOUT, written out so that parsing imports no torch.
+# = synthcal.eval.isolation.DEFAULT_TIMEOUT, written out so that parsing imports no torch.
 _DEFAULT_TIMEOUT = 21600.0
 
 
@@ -814,6 +822,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
     p.add_argument("-o", "--output", type=Path, required=True, help="folder receiving the PNGs")
     p.add_argument("--count", type=_positive_int, default=3, help="test images per overlay figure (default 3)")
+    p.add_argument("--metric", default=DEFAULT_METRIC,
+                   help="the metric the bars and overlay titles show: iou_weighted (default), iou, iou_bg, "
+                        "iou_part, iou_whole (as for table)")
     p.set_defaults(func=_cmd_plot)
     return parser
 

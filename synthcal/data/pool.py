@@ -110,7 +110,7 @@ def load_pool_dictionary(store: str | Path, seed: int, scene: StoreScene | None 
 
     Args:
         store: the dataset's store (with its own pool: a mixed dictionary has no pool
-            dictionary; :func:`synthcal.eval.harness.expand_runs` refuses one).
+            dictionary; :func:`synthcal.eval.runs.expand_runs` refuses one).
         seed: the split seed whose train and test samples are left out.
         scene: the store's scene when already read.
 

@@ -1,5 +1,7 @@
 """Evaluation: metrics (SPEC §8), the harness that runs estimators over datasets and
-seeds, the paper's result tables and plots.
+seeds (:mod:`.runs`: which runs a sweep has; :mod:`.isolation`: one estimator in a
+process of its own; :mod:`.harness`: executing runs and sweeps, reading the results),
+the paper's result tables and plots.
 
 Convention: every homography maps a bird's-eye pixel to an image pixel,
 ``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).

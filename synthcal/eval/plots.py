@@ -1,12 +1,16 @@
 """Figures of a results folder: IoU per dataset and estimator, and overlays.
 
+Both show one metric (``value``: a column of :data:`synthcal.eval.metrics.METRICS`,
+e.g. ``iou_weighted``), named in the axis label and titles.
+
 * :func:`plot_iou` — one group of bars per dataset, one bar per configuration
   (model and the keys that vary), height the mean over seeds of the per-run mean
-  IoU, error bar the standard deviation over seeds (ddof = 1, as the tables).
+  of the metric, error bar the standard deviation over seeds (ddof = 1, as the tables).
 * :func:`plot_overlays` — for a few test images of one seed: the image with its
   true semantic map, then with the map each configuration's estimate renders
   (the estimate stored in the run's ``metrics.csv``, oriented and drawn with the
-  generator's renderer), its IoU in the title. Nothing is re-run.
+  generator's renderer), the image's metric in the title ("–" where a run recorded
+  before the metric existed has none). Nothing is re-run.
 
 Figures are drawn on :class:`matplotlib.figure.Figure` objects and written with
 their own ``savefig`` (Agg for PNG): no pyplot, so no global figure state and no
@@ -91,8 +95,14 @@ def _estimated_map(scene_semantic: np.ndarray, estimate: np.ndarray, image_size:
     return render_semantic(scene_semantic, H, image_size)
 
 
+def _percent(frame: pd.DataFrame, row: int, value: str) -> str:
+    """``87.5 %``: one test image's metric from a run's ``metrics.csv``; "–" where the run has none."""
+    score = frame.loc[row, value] if value in frame.columns else np.nan
+    return "–" if pd.isna(score) else f"{100 * score:.1f} %"
+
+
 def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: str | Path, count: int = 3,
-                  max_configs: int = 4) -> Path:
+                  max_configs: int = 4, value: str = "iou") -> Path:
     """Test images of ``dataset`` with the true map and each configuration's estimate.
 
     Uses the lowest seed; the test images are spread evenly over the test split.
@@ -104,6 +114,7 @@ def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: s
         path: the PNG to write.
         count: test images (rows).
         max_configs: at most this many configurations (columns after the truth).
+        value: the metric column of ``metrics.csv`` in each estimate's title.
 
     Returns:
         ``path``.
@@ -132,10 +143,10 @@ def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: s
             estimate = frame.loc[row, _H_COLUMNS].to_numpy(np.float64)
             axes[i, j].imshow(overlay(image, _estimated_map(scene.semantic, estimate, (width, height)),
                                       scene.palette))
-            axes[i, j].set_title(f"{config}\nIoU {100 * frame.loc[row, 'iou']:.1f} %", fontsize=7)
+            axes[i, j].set_title(f"{config}\n{value} {_percent(frame, row, value)}", fontsize=7)
     for ax in axes.flat:
         ax.axis("off")
-    fig.suptitle(f"{dataset}: estimated vs true semantic map", fontsize=9)
+    fig.suptitle(f"{dataset}: estimated vs true semantic map ({value} per image)", fontsize=9)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120, bbox_inches="tight")

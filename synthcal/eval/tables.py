@@ -25,7 +25,7 @@ column             needed  meaning
 ``segmentation``   no      ``unet`` or ``ground-truth`` (caption)
 ``dictionary``     no      ``split`` or ``pool``: what the run searched (caption)
 ``budget``         no      the run's training budget in words
-                           (:func:`synthcal.eval.harness.training_budget`; caption)
+                           (:func:`synthcal.eval.runs.training_budget`; caption)
 =================  ======  ==========================================================
 
 A missing optional column, or a missing value (estimators without training or
@@ -110,7 +110,7 @@ KEYS = ("dataset", "model", "training", "loss", "matching_score")
 PAIR_KEYS = (*KEYS, "segmentation", "profile")
 # The caption's words for a segmentation value.
 SEGMENTATION_WORDS = {"unet": "a UNet's segmentation", "ground-truth": "the true semantic maps (ground-truth)"}
-# The caption's words for a dictionary value (synthcal.eval.harness: Run.dictionary).
+# The caption's words for a dictionary value (synthcal.eval.runs: Run.dictionary).
 DICTIONARY_WORDS = {"split": "the seed's drawn dictionary", "pool": "the whole pool outside the seed's train and test "
                     "sets (rows NAME (pool))"}
 REQUIRED = ("dataset", "model", "seed")

@@ -1,7 +1,7 @@
 """Running independent tasks here, on local worker processes, or on a Dask cluster.
 
 Generation farms out shards (:mod:`synthcal.generate.pipeline`) and the harness
-runs (:mod:`synthcal.eval.harness`) through :func:`dispatch`; both write their
+runs (:func:`synthcal.eval.harness.run_sweep`) through :func:`dispatch`; both write their
 results to files, so the order in which tasks finish never shapes the output.
 
 Local worker processes die with their parent: each sets, on Linux, a parent-death

@@ -177,6 +177,37 @@ def test_table_and_plot_commands(data, tmp_path, capsys):
     assert main(["table", str(tmp_path / "empty")]) == 2
 
 
+def test_plot_draws_the_metric_it_is_given(data, tmp_path, monkeypatch, capsys):
+    """``plot --metric``: the bars are the chosen column's mean, the label and the overlay titles name it."""
+    from matplotlib.figure import Figure
+
+    results = tmp_path / "results"
+    assert bench(data, results, "identity", seeds="0") == 0
+    frame = collect_results(results)
+    per_image = pd.read_csv(results / "runs" / frame["run_id"].iloc[0] / "metrics.csv")
+    saved: dict[str, Figure] = {}
+    savefig = Figure.savefig
+
+    def keep(fig, path, *args, **kwargs):
+        saved[Path(path).name] = fig
+        return savefig(fig, path, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    heights = {}
+    for metric in ("iou", "iou_bg"):
+        assert main(["plot", str(results), "-o", str(tmp_path / metric), "--count", "1", "--metric", metric]) == 0
+        bars = saved["iou.png"].axes[0]
+        assert bars.get_ylabel() == f"{metric} (%)"
+        heights[metric] = [patch.get_height() for patch in bars.patches]
+        assert heights[metric] == pytest.approx([100 * frame[metric].iloc[0]])
+        titles = [ax.get_title() for ax in saved["overlays-intersection-1.png"].axes]
+        assert titles[1] == f"identity\n{metric} {100 * per_image[metric].iloc[0]:.1f} %"
+    assert heights["iou"] != pytest.approx(heights["iou_bg"])  # the two readings differ here: the bars show which
+    capsys.readouterr()
+    assert main(["plot", str(results), "-o", str(tmp_path / "x"), "--metric", "miou"]) == 2
+    assert "--metric: unknown metric 'miou'" in capsys.readouterr().err
+
+
 def test_reference_estimators_sit_in_every_row():
     frame = pd.DataFrame({
         "dataset": "d", "model": ["identity", "proposed", "proposed"], "training": [None, "e2e", "e2e"],

@@ -9,14 +9,20 @@ unless ``--store`` names a store (then its first ``--pool`` semantic maps, reduc
 to 128 × 72 as the estimator does; reading them is timed separately). Untrained
 weights: the cost does not depend on them.
 
-Run: .venv/bin/python benchmarks/pool.py [--pool 4000] [--queries 500] [--threads 1] [--store S.zarr]
+The baseline, measured in the same run, is the paper's split dictionary: the first
+``--split`` (default 1,000) of the same maps, embedded and searched the same way;
+the pool's costs are printed as ratios against it (the machine is shared and noisy).
+
+Run: .venv/bin/python benchmarks/pool.py [--pool 4000] [--split 1000] [--queries 500] [--threads 1] [--store S.zarr]
 """
 
 from __future__ import annotations
 
 import argparse
 import resource
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -24,6 +30,9 @@ import torch
 from synthcal.models import SiameseNet, nearest_embeddings, one_hot_maps
 from synthcal.training import embed_templates, reduce_class_maps
 from synthcal.training.stages import TrainingData
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from timing import best_of  # noqa: E402
 
 WORK = (128, 72)
 
@@ -43,9 +52,21 @@ def _maps(store: str | None, count: int) -> tuple[torch.Tensor, float]:
     return maps, time.perf_counter() - started
 
 
+def _costs(siamese: SiameseNet, templates: torch.Tensor, queries: torch.Tensor) -> tuple[float, float]:
+    """Seconds to embed (T, h, w) ``templates`` (best of 2) and to search them for (Q, D) ``queries`` (best of 5)."""
+    empty = torch.empty(0)
+    data = TrainingData(images=None, semantics=empty, homographies=empty, match=empty, templates=templates,
+                        template_homographies=empty, scene=empty, scene_frame=empty, work_size=WORK)
+    embedding = embed_templates(siamese, data, torch.device("cpu"))
+    embed_seconds = best_of(2, lambda: embed_templates(siamese, data, torch.device("cpu")))
+    search_seconds = best_of(5, lambda: nearest_embeddings(queries, embedding))
+    return embed_seconds, search_seconds
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--pool", type=int, default=4000)
+    parser.add_argument("--split", type=int, default=1000, help="the baseline: the split dictionary's size")
     parser.add_argument("--queries", type=int, default=500)
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--store", default=None)
@@ -54,26 +75,20 @@ def main() -> None:
     templates, read_seconds = _maps(args.store, args.pool)
     torch.manual_seed(0)
     siamese = SiameseNet(4, embedding_dim=64, width=16).eval()
-    empty = torch.empty(0)
-    data = TrainingData(images=None, semantics=empty, homographies=empty, match=empty, templates=templates,
-                        template_homographies=empty, scene=empty, scene_frame=empty, work_size=WORK)
-    started = time.perf_counter()
-    embedding = embed_templates(siamese, data, torch.device("cpu"))
-    embed_seconds = time.perf_counter() - started
     with torch.no_grad():
         queries = siamese(one_hot_maps(templates[: args.queries].long(), 4))
-    started = time.perf_counter()
-    for _ in range(5):
-        nearest_embeddings(queries, embedding)
-    search_seconds = (time.perf_counter() - started) / 5
+        split = _costs(siamese, templates[: args.split], queries)
+        pool = _costs(siamese, templates, queries)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"pool {args.pool:,} maps at {WORK[0]} × {WORK[1]}, {args.threads} thread(s)"
-          + (f", read + reduce {read_seconds:.1f} s" if args.store else ", random maps"))
-    print(f"embedding: {embed_seconds:.2f} s ({1e3 * embed_seconds / args.pool:.2f} ms per template)")
-    print(f"search of {args.queries} queries: {1e3 * search_seconds:.1f} ms "
-          f"({1e3 * search_seconds / args.queries:.3f} ms per query)")
-    print(f"embedding search + the query's own embedding per query: "
-          f"{1e3 * (search_seconds / args.queries + embed_seconds / args.pool):.2f} ms; peak RSS {peak:.0f} MiB")
+    print(f"{WORK[0]} × {WORK[1]} maps, {args.threads} thread(s), {args.queries} queries, "
+          + (f"read + reduce {read_seconds:.1f} s for the pool" if args.store else "random maps")
+          + f"; peak RSS {peak:.0f} MiB")
+    print(f"{'dictionary':>18} {'embedding':>11} {'per template':>13} {'search':>9} {'per query':>10}")
+    for name, size, (embed, search) in (("split", args.split, split), ("pool", args.pool, pool)):
+        print(f"{name + f' {size:,}':>18} {embed:>9.2f} s {1e3 * embed / size:>10.3f} ms "
+              f"{1e3 * search:>6.1f} ms {1e3 * search / args.queries:>7.3f} ms")
+    print(f"pool / split: embedding ×{pool[0] / split[0]:.1f} (sizes ×{args.pool / args.split:.1f}), "
+          f"search ×{pool[1] / split[1]:.1f}")
 
 
 if __name__ == "__main__":

@@ -172,3 +172,34 @@ def test_a_mixed_dictionary_renders_its_templates_in_splits_sources(smoke_config
     for k, name in enumerate(sources):
         full = read_rows(array_at(open_store(smoke_stores.path(name)), "image"), mixed.index[mixed.source == k])
         np.testing.assert_array_equal(resolved["image"][mixed.source == k], full)
+
+
+def test_the_pool_dictionary_of_a_splits_store_scores_like_a_full_store(store, smoke_stores, tmp_path):
+    # The pool dictionary reads maps only, so most of its templates have no image in a
+    # splits store; its scores must equal the same run on the full (images: all) store.
+    import pandas as pd
+
+    from synthcal.eval.harness import collect_results
+
+    full = smoke_stores.copy([NAME], tmp_path / "full")[NAME]
+    for path in (store, full):
+        draw_splits(path, seeds=(0,), sizes=SplitSizes(train=24, test=8, dictionary=12))
+    group = open_store(store)
+    templates = set(range(48)) - {int(i) for split in ("train", "test") for i in _split(store, split)}
+    assert not rendered_mask(group)[sorted(templates)].all()  # some templates were never rendered
+    scores = []
+    for path in (store, full):
+        results = tmp_path / f"results-{path.parent.name}"
+        assert cli.main(["bench", "--data", str(path.parent), "--datasets", NAME, "--estimator", "template",
+                         "--seeds", "0", "--results", str(results), "--profile", "smoke", "--device", "cpu",
+                         "--dictionary", "pool", "--quiet"]) == 0
+        run = collect_results(results)["run_id"].iloc[0]
+        scores.append(pd.read_csv(results / "runs" / run / "metrics.csv"))
+    assert len(scores[0]) == 8
+    pd.testing.assert_frame_equal(scores[0], scores[1])
+
+
+def _split(store: Path, split: str) -> np.ndarray:
+    from synthcal.store.splits import read_split_indices
+
+    return read_split_indices(store, split, 0)

@@ -11,6 +11,7 @@ writes into a store (splits, resume, damage) cannot change what another sees.
 from __future__ import annotations
 
 import shutil
+import signal
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -20,6 +21,19 @@ from synthcal.config import LoadedConfig, load_config
 from synthcal.generate.pipeline import generate_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Let Ctrl-C reach the code under test even when the suite was started with SIGINT ignored.
+
+    A shell ignores SIGINT in the jobs it starts in the background (``make test &``,
+    ``nohup``), and an ignored signal stays ignored across ``exec``: Python then never
+    raises KeyboardInterrupt, here or in the subprocesses the Ctrl-C tests start, and
+    those tests would fail for a reason that is not in synthcal. A handler (not SIG_IGN)
+    is reset to the default on ``exec``, so the subprocesses get Python's own as well.
+    """
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 class SmokeStores:

@@ -57,7 +57,7 @@ def _costs(siamese: SiameseNet, templates: torch.Tensor, queries: torch.Tensor) 
     empty = torch.empty(0)
     data = TrainingData(images=None, semantics=empty, homographies=empty, match=empty, templates=templates,
                         template_homographies=empty, scene=empty, scene_frame=empty, work_size=WORK)
-    embedding = embed_templates(siamese, data, torch.device("cpu"))
+    embedding = embed_templates(siamese, data, torch.device("cpu"))  # also the warm-up of the timed calls
     embed_seconds = best_of(2, lambda: embed_templates(siamese, data, torch.device("cpu")))
     search_seconds = best_of(5, lambda: nearest_embeddings(queries, embedding))
     return embed_seconds, search_seconds

@@ -95,9 +95,9 @@ def child(kind: str, path: str) -> None:
     """One measurement in this (fresh) process; prints seconds and peak RSS as JSON."""
     import osmium
 
-    from synthcal.generate.scenes.osm import build_osm_scene
-    from synthcal.generate.scenes.osm_classes import class_rules, relevant_keys
-    from synthcal.generate.scenes.osm_read import Frame, read_osm
+    from synthcal.scenes.osm import build_osm_scene
+    from synthcal.scenes.osm.classes import class_rules, relevant_keys
+    from synthcal.scenes.osm.read import Frame, read_osm
 
     started = time.perf_counter()
     if kind == "scene":

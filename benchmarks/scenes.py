@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from timing import best_of  # benchmarks/timing.py (scripts run from benchmarks/)
 
-from synthcal.generate.scenes import BUILTIN_SCENES, build_scene
+from synthcal.scenes import BUILTIN_SCENES, build_scene
 
 
 def load_arrays(*paths: Path) -> list[np.ndarray]:

@@ -31,7 +31,7 @@ __all__ = ["main"]
 
 def _cmd_scenes(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
-    from synthcal.generate.scenes import BUILTIN_SCENES
+    from synthcal.scenes import BUILTIN_SCENES
 
     for name, description in BUILTIN_SCENES.items():
         print(f"{name:16s} built in   {description}")
@@ -56,7 +56,7 @@ def _parse_pair(text: str, what: str) -> tuple[float, float]:
 def _cmd_osm(args: argparse.Namespace) -> None:
     import cv2
 
-    from synthcal.generate.scenes.osm import build_osm_scene
+    from synthcal.scenes.osm import build_osm_scene
     from synthcal.utils.atomic import atomic_write
 
     scene = build_osm_scene(args.file, args.center, args.size, args.ppm, name=args.name, seed=args.seed)
@@ -110,14 +110,14 @@ def _describe_dataset(config: LoadedConfig, name: str, profile: str | None) -> s
 def _cmd_scene(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import load_scene
-    from synthcal.generate.scenes import draw_scene
+    from synthcal.scenes import draw_scene
 
     config = load_config(args.config)
     dataset = next((d for d, e in config.config.datasets.items() if e.scene == args.name), None)
     if dataset is not None:
         scene = load_scene(config.resolve(dataset))
     else:
-        from synthcal.generate.scenes import build_scene
+        from synthcal.scenes import build_scene
 
         scene = build_scene(args.name)
     print(write_picture(args.output, draw_scene(scene)))
@@ -863,7 +863,7 @@ def _run(args: argparse.Namespace) -> int:
     """Run the command; user errors (bad input, files, stores) as one line, exit 2."""
     from synthcal.config import ConfigError
     from synthcal.estimators import EstimatorError
-    from synthcal.generate.scenes import SceneError
+    from synthcal.scenes import SceneError
     from synthcal.store import StoreError
 
     default_format = warnings.formatwarning

@@ -119,7 +119,7 @@ MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020"}
 GRID_AXES = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
 
 # The built-in scenes a dataset's ``scene:`` may name besides the file's own
-# ``scenes:``, in listing order; synthcal.generate.scenes.BUILTIN_SCENES has exactly these keys.
+# ``scenes:``, in listing order; synthcal.scenes.BUILTIN_SCENES has exactly these keys.
 BUILTIN_SCENE_NAMES: tuple[str, ...] = (
     "intersection-1", "intersection-2", "intersection-3", "intersection-4", "intersection-5", "soccer",
 )

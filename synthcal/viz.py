@@ -9,7 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from synthcal.generate.scenes import colorize
+from synthcal.scenes import colorize
 
 __all__ = ["colorize", "overlay", "sample_strip", "tile", "labelled_rows", "non_empty_examples", "write_png"]
 

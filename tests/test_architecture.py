@@ -9,13 +9,14 @@ line. The packages must also form no import cycle.
 The contract, package by package (a package may always import its own modules):
 
 * ``config``, ``models``, ``utils`` import nothing of synthcal;
-* ``store`` → config, utils; ``generate`` → config, store, utils; ``data`` → config, store;
+* ``store`` → config, utils; ``data`` → config, store;
+* ``scenes`` → config, utils (the OSM scene cache writes its PNGs with ``utils.atomic``);
+* ``generate`` → config, scenes, store, utils;
 * ``training`` → models, data, store, config, utils;
 * ``estimators`` → models, data, store, training, config, utils;
-* ``eval`` → estimators, data, store, config, utils, viz, and of ``generate`` only
-  the renderer, the camera and the scenes (``generate.render``, ``generate.camera``,
-  ``generate.scenes``, for the colours);
-* ``viz`` → ``generate.scenes`` only;
+* ``eval`` → estimators, data, store, config, utils, viz, scenes (for the colours), and
+  of ``generate`` only the renderer and the camera (``generate.render``, ``generate.camera``);
+* ``viz`` → ``scenes`` only;
 * ``cli`` → anything;
 * the top-level ``synthcal/__init__.py`` imports nothing of synthcal.
 """
@@ -48,13 +49,14 @@ CONTRACT: dict[str, Rule] = {
     "models": Rule(),
     "utils": Rule(),
     "store": Rule(frozenset({"config", "utils"})),
-    "generate": Rule(frozenset({"config", "store", "utils"})),
+    "scenes": Rule(frozenset({"config", "utils"})),
+    "generate": Rule(frozenset({"config", "scenes", "store", "utils"})),
     "data": Rule(frozenset({"config", "store"})),
     "training": Rule(frozenset({"models", "data", "store", "config", "utils"})),
     "estimators": Rule(frozenset({"models", "data", "store", "training", "config", "utils"})),
-    "eval": Rule(frozenset({"estimators", "data", "store", "config", "utils", "viz", "generate"}),
-                 only={"generate": ("generate.render", "generate.camera", "generate.scenes")}),
-    "viz": Rule(frozenset({"generate"}), only={"generate": ("generate.scenes",)}),
+    "eval": Rule(frozenset({"estimators", "data", "store", "config", "utils", "viz", "scenes", "generate"}),
+                 only={"generate": ("generate.render", "generate.camera")}),
+    "viz": Rule(frozenset({"scenes"})),
     "cli": Rule(anything=True),
 }
 
@@ -230,13 +232,13 @@ FAKE = {
     "fake/generate/grid.py": "from fake.config import C\n",
     "fake/generate/render.py": "",
     "fake/generate/pipeline.py": "from fake.store import open_store\n",
-    "fake/generate/scenes/__init__.py": "from .soccer import pitch\n",
-    "fake/generate/scenes/soccer.py": "",
+    "fake/scenes/__init__.py": "from .soccer import pitch\n",
+    "fake/scenes/soccer.py": "from ..generate import grid\n",
     "fake/models/__init__.py": "import torch\n\n\ndef f():\n    if True:\n        from fake.store import format\n",
     "fake/eval/__init__.py": "",
-    "fake/eval/metrics.py": ("from ..generate.render import r\nfrom ..generate.scenes.soccer import s\n"
+    "fake/eval/metrics.py": ("from ..generate.render import r\nfrom ..scenes.soccer import s\n"
                              "from ..generate import pipeline\nfrom fake.generate import camera_helper\n"),
-    "fake/viz.py": "from fake.generate.scenes import colorize\n",
+    "fake/viz.py": "from fake.scenes import colorize\n",
     "fake/cli.py": "from fake.generate.pipeline import generate\nfrom fake.eval import metrics\n",
     "fake/plugins/__init__.py": "",
 }
@@ -251,18 +253,21 @@ def test_checker_reports_forbidden_imports_with_file_and_line(tmp_path):
         "fake/eval/metrics.py:3: fake.eval.metrics imports fake.generate.pipeline",  # from .. import module
         "fake/eval/metrics.py:4: fake.eval.metrics imports fake.generate",  # a name of generate/__init__
         "fake/models/__init__.py:6: fake.models imports fake.store.format",  # nested in a function and an if
+        "fake/scenes/soccer.py:1: fake.scenes.soccer imports fake.generate.grid",  # scenes sit below generate
     ]
     assert [line.rsplit(": ", 1)[0] for line in found] == expected, "\n".join(found)
-    assert "only generate.render, generate.camera, generate.scenes" in found[1]
+    assert "only generate.render, generate.camera" in found[1]
     assert "models may import nothing of synthcal" in found[3]
+    assert "scenes may import config, utils" in found[4]
 
 
 def test_checker_parses_relative_and_function_level_imports(tmp_path):
     write_tree(tmp_path, FAKE)
     targets = {(imp.importer, imp.target) for imp in all_imports(tmp_path, "fake")}
     assert ("fake.store", "fake.store.format") in targets  # from . import format
-    assert ("fake.generate.scenes", "fake.generate.scenes.soccer") in targets  # from .soccer import pitch
-    assert ("fake.eval.metrics", "fake.generate.scenes.soccer") in targets  # from ..generate.scenes.soccer import s
+    assert ("fake.scenes", "fake.scenes.soccer") in targets  # from .soccer import pitch
+    assert ("fake.eval.metrics", "fake.scenes.soccer") in targets  # from ..scenes.soccer import s
+    assert ("fake.scenes.soccer", "fake.generate.grid") in targets  # from ..generate import grid
     assert ("fake.store.format", "fake.utils") in targets  # import fake.utils
     assert not any(t.startswith(("os", "torch")) for _, t in targets)
 

@@ -2,8 +2,8 @@
 generator facts it validates with; they must agree with the generator."""
 
 from synthcal.config import BUILTIN_SCENE_NAMES, POSE_SET_SPLITS
-from synthcal.generate.scenes import BUILTIN_SCENES
 from synthcal.generate.worldcup import pose_partition
+from synthcal.scenes import BUILTIN_SCENES
 
 
 def test_builtin_scene_names_match_the_scenes():

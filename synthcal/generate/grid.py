@@ -39,7 +39,7 @@ def grid_axes(
     Args:
         grid: the grid; with ``xy_relative`` its X/Y are offsets from ``anchor``.
         scene_position: the scene's ``(X, Y, Z)`` for a grid without X/Y/Z.
-        anchor: the scene's camera anchor (:attr:`synthcal.generate.scenes.Scene.anchor`),
+        anchor: the scene's camera anchor (:attr:`synthcal.scenes.Scene.anchor`),
             needed by a relative grid.
 
     Returns:

@@ -45,7 +45,7 @@ from synthcal.generate.render import (
     render_semantic,
     render_semantic_and_mask,
 )
-from synthcal.generate.scenes import Scene, build_scene, load_user_scene
+from synthcal.scenes import Scene, build_scene, load_user_scene
 from synthcal.store import (
     CAMERA_FIELDS,
     FORMAT_VERSION,
@@ -96,7 +96,7 @@ def _osm_scene(spec: DatasetSpec) -> Scene:
     """An OpenStreetMap scene (built once per content, cached), with the entry's camera and heading."""
     import dataclasses
 
-    from synthcal.generate.scenes.osm import build_osm_scene
+    from synthcal.scenes.osm import build_osm_scene
 
     assert spec.user_scene is not None and spec.user_scene.osm is not None
     user, osm = spec.user_scene, spec.user_scene.osm
@@ -112,7 +112,7 @@ def _source_attributes(spec: DatasetSpec) -> dict:
     """``{"source": …}`` for an OpenStreetMap scene (file hash, centre, size, licence); empty for others."""
     if spec.user_scene is None or spec.user_scene.osm is None:
         return {}
-    from synthcal.generate.scenes.osm import osm_attributes
+    from synthcal.scenes.osm import osm_attributes
 
     osm = spec.user_scene.osm
     return {"source": osm_attributes(osm.file, osm.center, osm.size_m, osm.pixels_per_metre, osm.classes, osm.seed)}

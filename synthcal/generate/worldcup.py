@@ -48,7 +48,7 @@ from scipy.optimize import least_squares
 
 from synthcal.config import POSE_SET_SPLITS, ConfigError, DatasetSpec, GridConfig
 from synthcal.generate.camera import decompose_homography, intrinsics, orient_homography
-from synthcal.generate.scenes import Scene, soccer
+from synthcal.scenes import Scene, soccer
 from synthcal.store import CAMERA_FIELDS
 
 __all__ = [

@@ -24,9 +24,9 @@ from synthcal.eval.metrics import (
     summarize,
 )
 from synthcal.generate.camera import homography
-from synthcal.generate.scenes import build_scene
-from synthcal.generate.scenes.soccer import CAMERA_POSITION as SOCCER_CAMERA
-from synthcal.generate.scenes.soccer import HEADING_DEG as SOCCER_HEADING
+from synthcal.scenes import build_scene
+from synthcal.scenes.soccer import CAMERA_POSITION as SOCCER_CAMERA
+from synthcal.scenes.soccer import HEADING_DEG as SOCCER_HEADING
 
 SIZE = (48, 24)
 STRIPE = 8  # bird's-eye pixels per stripe; classes 1, 2, 3 repeat every 24 columns

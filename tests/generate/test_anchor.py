@@ -19,7 +19,7 @@ import yaml
 from synthcal.config import AxisRange, ConfigError, GridConfig, load_config
 from synthcal.generate.grid import sample_cameras
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.generate.scenes import build_scene
+from synthcal.scenes import build_scene
 from synthcal.store import open_store
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -69,7 +69,7 @@ def test_anchor_is_camera_position_else_the_centre(tmp_path):
 
 
 def load_scene_of(paths: tuple[Path, Path], position: list[float] | None):
-    from synthcal.generate.scenes import load_user_scene
+    from synthcal.scenes import load_user_scene
 
     return load_user_scene("mine", *paths, camera_position=position)
 

@@ -12,7 +12,6 @@ from synthcal.config import ConfigError, load_config
 from synthcal.data import load_split
 from synthcal.generate.camera import homography
 from synthcal.generate.pipeline import load_scene
-from synthcal.generate.scenes import soccer
 from synthcal.generate.splits import SplitsResized, draw_splits
 from synthcal.generate.worldcup import (
     METRES_PER_YARD,
@@ -22,6 +21,7 @@ from synthcal.generate.worldcup import (
     frame_scaling,
     load_worldcup_poses,
 )
+from synthcal.scenes import soccer
 from synthcal.store import CAMERA_FIELDS, open_store, read_samples
 from synthcal.store.splits import SplitError, read_split_indices
 

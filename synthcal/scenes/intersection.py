@@ -44,7 +44,7 @@ The five layouts (complexity rises 1 → 5, as in the paper):
    parallel cycle paths on every leg), two lone cycle tracks, parks with
    footpaths, a car park.
 
-Each layout is data (:class:`~synthcal.generate.scenes.network.Layout`) fed to one
+Each layout is data (:class:`~synthcal.scenes.network.Layout`) fed to one
 builder; randomness (roof colours, cars, trees) comes from the layout's fixed seed.
 """
 

@@ -24,9 +24,9 @@ from osm_fixtures import CENTER, OsmXml, junction, metres_of, pixel  # noqa: E40
 
 from synthcal.cli import main  # noqa: E402
 from synthcal.config import load_config  # noqa: E402
-from synthcal.generate.scenes import SceneError  # noqa: E402
-from synthcal.generate.scenes.osm import build_osm_scene  # noqa: E402
-from synthcal.generate.scenes.osm_read import Frame  # noqa: E402
+from synthcal.scenes import SceneError  # noqa: E402
+from synthcal.scenes.osm import build_osm_scene  # noqa: E402
+from synthcal.scenes.osm.read import Frame  # noqa: E402
 
 SIZE_M, PPM = (60.0, 80.0), 4.0
 
@@ -162,7 +162,7 @@ def test_same_file_centre_and_seed_give_identical_pngs(osm_file, tmp_path):
 
 
 def test_built_once_and_cached_by_content(osm_file, tmp_path, monkeypatch):
-    import synthcal.generate.scenes.osm as osm
+    import synthcal.scenes.osm.build as osm
 
     cache = tmp_path / "c"
     monkeypatch.setenv("SYNTHCAL_CACHE", str(cache))

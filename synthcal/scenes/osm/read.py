@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from .base import SceneError
+from ..base import SceneError
 
 __all__ = ["Frame", "Feature", "OsmData", "read_osm", "MARGIN_M"]
 

@@ -1,6 +1,6 @@
 """The RGB of an OSM scene: the procedural scenes' material kit on real geometry.
 
-Textures come from the material map (:mod:`.dressing`); on top, RGB only:
+Textures come from the material map (:mod:`..dressing`); on top, RGB only:
 lane lines (from ``lanes``), stop lines where roads meet, zebra crossings
 (``highway=crossing`` nodes and ``footway=crossing`` ways), red (or, where
 tagged, green) cycle surfaces and red cycle crossings, kerbs, roofs with shadows
@@ -20,7 +20,7 @@ import numpy as np
 import shapely
 from shapely.ops import substring
 
-from .dressing import (
+from ..dressing import (
     CAR_COLOURS,
     ROOFS,
     Car,
@@ -35,11 +35,11 @@ from .dressing import (
     fill_rgb,
     shade,
 )
-from .intersection import LOOKS as KIT_LOOKS
-from .osm_classes import LANE_WIDTH, parse_metres
-from .osm_paint import Painted, Road
-from .osm_read import Feature, Frame
-from .roadkit import SHIFT, Point, circle
+from ..intersection import LOOKS as KIT_LOOKS
+from ..roadkit import SHIFT, Point, circle
+from .classes import LANE_WIDTH, parse_metres
+from .paint import Painted, Road
+from .read import Feature, Frame
 
 __all__ = ["LOOKS", "dress"]
 

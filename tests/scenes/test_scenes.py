@@ -12,7 +12,7 @@ import pytest
 
 from synthcal.generate.camera import homography
 from synthcal.generate.render import render_semantic
-from synthcal.generate.scenes import (
+from synthcal.scenes import (
     BUILTIN_SCENES,
     Scene,
     SceneError,

@@ -1,6 +1,6 @@
 """The semantic map and material map of an OSM scene, from its features (SPEC §4).
 
-Layers are painted in :data:`~.osm_classes.PAINT_ORDER` (later wins), each the
+Layers are painted in :data:`~.classes.PAINT_ORDER` (later wins), each the
 union of its features' geometry clipped to the window: areas as they are, lines
 buffered to their width (round caps and joins, so legs meet without notches),
 then the cycle strips that roads carry. Class maps are drawn without
@@ -20,10 +20,10 @@ import cv2
 import numpy as np
 import shapely
 
-from .network import Material
-from .osm_classes import PAINT_ORDER, ClassRules, Strip, classify, line_width, strips
-from .osm_read import Feature, Frame
-from .roadkit import SHIFT, Canvas
+from ..network import Material
+from ..roadkit import SHIFT, Canvas
+from .classes import PAINT_ORDER, ClassRules, Strip, classify, line_width, strips
+from .read import Feature, Frame
 
 __all__ = ["GREEN_BIKE", "WATER", "Road", "Painted", "paint_classes", "fill_geometry", "material_of"]
 
@@ -160,7 +160,7 @@ def paint_classes(features: list[Feature], rules: ClassRules, frame: Frame) -> P
     """Paint the class and material maps of the window.
 
     Args:
-        features: what :func:`~.osm_read.read_osm` found.
+        features: what :func:`~.read.read_osm` found.
         rules: the tag → class selectors.
         frame: the scene's frame.
 

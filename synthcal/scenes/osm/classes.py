@@ -32,7 +32,7 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from .base import SceneError
+from ..base import SceneError
 
 __all__ = ["CLASS_NAMES", "CLASS_IDS", "PAINT_ORDER", "DEFAULT_CLASSES", "Selector", "ClassRules", "class_rules",
            "classify", "line_width", "parse_metres", "strips", "Strip", "LANE_WIDTH", "relevant_keys"]

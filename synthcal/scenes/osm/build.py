@@ -2,14 +2,14 @@
 
 :func:`build_osm_scene` reads an extract (``.osm``, ``.osm.pbf``, ``.osm.bz2``)
 around a centre ``(lat, lon)`` and paints the bird's-eye semantic map and a
-plausible RGB in the frame of SPEC §4 (:mod:`.osm_read`): a transverse Mercator
+plausible RGB in the frame of SPEC §4 (:mod:`.read`): a transverse Mercator
 centred on the centre, ``u = (W − 1)/2 + E·ppm``, ``v = (H − 1)/2 − N·ppm``, north
 up. The defaults (130 × 190 m at 10 px/m: 1300 × 1900 px) put the paper's
 intersection grid (X 600–700, Y 900–1000) over the centre.
 
 Classes: 1 road (carriageways), 2 terrain (grass, parks, scrub), 3 bicycle path,
 0 everything else; the tag → class mapping and the painting order are in
-:mod:`.osm_classes`, overridable with ``classes``. The RGB (:mod:`.osm_dress`) is
+:mod:`.classes`, overridable with ``classes``. The RGB (:mod:`.dress`) is
 seeded: the same file, centre, size, scale, classes and seed give byte-identical
 arrays.
 
@@ -36,10 +36,10 @@ import numpy as np
 
 from synthcal.utils.atomic import atomic_write
 
-from .base import Scene, SceneError, freeze
-from .intersection import PALETTE
-from .osm_classes import CLASS_NAMES, ClassRules, class_rules, relevant_keys
-from .osm_read import Frame, centre_inside, read_osm
+from ..base import Scene, SceneError, freeze
+from ..intersection import PALETTE
+from .classes import CLASS_NAMES, ClassRules, class_rules, relevant_keys
+from .read import Frame, centre_inside, read_osm
 
 __all__ = ["build_osm_scene", "osm_attributes", "file_sha256", "OSM_LICENCE", "OSM_ATTRIBUTION", "cache_folder"]
 
@@ -132,8 +132,8 @@ def _store_cached(folder: Path, image: np.ndarray, semantic: np.ndarray) -> None
 
 def _paint(path: Path, where: str, frame: Frame, rules: ClassRules, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Read and paint: (image, semantic)."""
-    from .osm_dress import dress
-    from .osm_paint import paint_classes
+    from .dress import dress
+    from .paint import paint_classes
 
     try:
         data = read_osm(path, frame, relevant_keys(rules))
@@ -174,7 +174,7 @@ def build_osm_scene(
         name: scene name (default: the file name without suffixes).
         seed: the RGB's random seed (cars, roofs, trees, textures).
         classes: overrides of the tag → class mapping, class name → selectors
-            (:func:`~.osm_classes.class_rules`).
+            (:func:`~.classes.class_rules`).
         cache: keep the result in the process and on disk (:func:`cache_folder`) and
             read it back; False builds afresh and keeps nothing.
 

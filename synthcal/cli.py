@@ -367,7 +367,7 @@ def _cmd_demo(args: argparse.Namespace) -> None:
         size = sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
         print(f"  {name:16s} {spec.pool_size:6d} samples  {time.perf_counter() - started:6.1f} s  "
               f"{size / spec.pool_size / 1024:6.1f} KiB/sample  {path}")
-        rows.append((name, _demo_examples(path)))
+        rows.append((name, demo_examples(path)))
     montage = write_png(out / "montage.png", labelled_rows(rows))
     print(f"montage: {montage}  (per dataset two samples with labelled ground: image | semantic map | overlay)")
     if args.no_bench:
@@ -375,7 +375,7 @@ def _cmd_demo(args: argparse.Namespace) -> None:
     _demo_bench(args, config, out)
 
 
-def _demo_examples(store: Path, count: int = 2) -> list[np.ndarray]:
+def demo_examples(store: Path, count: int = 2) -> list[np.ndarray]:
     """``count`` sample strips of a store for the demo montage, chosen among its first 64 for labelled ground."""
     from synthcal.store import attributes, open_store, read_samples
     from synthcal.viz import non_empty_examples, sample_strip
@@ -841,7 +841,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         command = args.command
-        return _run(args)
+        return run_command(args)
     except KeyboardInterrupt:
         return _interrupted(command)
 
@@ -859,7 +859,7 @@ def _interrupted(command: str | None) -> int:
     return 130
 
 
-def _run(args: argparse.Namespace) -> int:
+def run_command(args: argparse.Namespace) -> int:
     """Run the command; user errors (bad input, files, stores) as one line, exit 2."""
     from synthcal.config import ConfigError
     from synthcal.estimators import EstimatorError
@@ -867,7 +867,7 @@ def _run(args: argparse.Namespace) -> int:
     from synthcal.store import StoreError
 
     default_format = warnings.formatwarning
-    warnings.formatwarning = functools.partial(_format_warning, default_format)
+    warnings.formatwarning = functools.partial(format_warning, default_format)
     try:
         status = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here rather than at exit
@@ -899,7 +899,7 @@ def _stdout_gone() -> int:
     return 141  # 128 + SIGPIPE, what a shell reports for a writer killed by the closed pipe
 
 
-def _format_warning(default: Callable[..., str], message: Warning | str, category: type[Warning],
+def format_warning(default: Callable[..., str], message: Warning | str, category: type[Warning],
                     *args: Any, **kwargs: Any) -> str:
     """synthcal's own warnings as ``synthcal: warning: …`` (they name their file); others as Python does."""
     if category.__module__.startswith("synthcal"):

@@ -38,7 +38,7 @@ import numpy as np
 
 from synthcal.config import load_config
 from synthcal.generate.pipeline import generate_dataset, load_scene
-from synthcal.generate.render import _supersampled
+from synthcal.generate.render import supersampled
 from synthcal.store import open_store
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -51,7 +51,7 @@ def bare_warps(scene, homographies: np.ndarray, image_size: tuple[int, int], sup
     fine = (width * supersample, height * supersample)
     started = time.perf_counter()
     for H in homographies:
-        cv2.warpPerspective(scene.image, _supersampled(H, supersample), fine, flags=cv2.INTER_LINEAR)
+        cv2.warpPerspective(scene.image, supersampled(H, supersample), fine, flags=cv2.INTER_LINEAR)
         cv2.warpPerspective(scene.semantic, H, image_size, flags=cv2.INTER_NEAREST)
     return time.perf_counter() - started
 

@@ -45,7 +45,7 @@ from synthcal.models import (
     warp_semantic,
 )
 from synthcal.models.losses import ALPHA, BETA, CLASS_REDUCTION, GRID
-from synthcal.models.matching import _Encoded, _scores
+from synthcal.models.matching import Encoded, encoded_scores
 
 WIDTH, HEIGHT = 256, 144
 
@@ -75,8 +75,8 @@ def bench_matching(n_queries: int, n_templates: int, sub_queries: int, sub_templ
     # Ablation: the same GEMMs on one-hot float32 maps in full precision, i.e. without
     # the class code and the exact reduced-precision GEMM (one chunk, encoding untimed).
     chunk = min(256, n_queries)
-    onehot_t = _Encoded(one_hot_maps(templates), GRID, 4)
-    onehot_q = _Encoded(one_hot_maps(queries[:chunk]), GRID, 4)
+    onehot_t = Encoded(one_hot_maps(templates), GRID, 4)
+    onehot_q = Encoded(one_hot_maps(queries[:chunk]), GRID, 4)
     for score, loss in (("mse", mse_loss), ("top_mse", top_mse_loss)):
         match_ground_truth(queries[:8], templates[:8], score)  # warm-up
         fast = seconds(lambda score=score: match_ground_truth(queries, templates, score))
@@ -90,8 +90,8 @@ def bench_matching(n_queries: int, n_templates: int, sub_queries: int, sub_templ
 
         brute_pair = seconds(brute, repeat=2) / (sub_queries * sub_templates)
         agree = torch.equal(brute(), match_ground_truth(queries[:sub_queries], templates[:sub_templates], score).index)
-        onehot = seconds(lambda score=score: _scores(onehot_q, onehot_t, score, GRID, (HEIGHT, WIDTH), ALPHA, BETA,
-                                                      CLASS_REDUCTION))
+        onehot = seconds(lambda score=score: encoded_scores(onehot_q, onehot_t, score, GRID, (HEIGHT, WIDTH), ALPHA,
+                                                            BETA, CLASS_REDUCTION))
         fast_pair = fast / pairs
         print(f"{score:8s} GEMM {fast:6.2f} s = {fast_pair * 1e6:5.3f} us/pair | brute-force loop "
               f"{brute_pair * 1e6:6.1f} us/pair (on {sub_queries}x{sub_templates}; all pairs: "

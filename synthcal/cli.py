@@ -206,48 +206,22 @@ def _cmd_split(args: argparse.Namespace) -> None:
 def _cmd_worldcup_stats(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import load_scene
-    from synthcal.generate.worldcup import (
-        bird_eye_to_pitch,
-        camera_fields,
-        convert_homographies,
-        in_grid,
-        load_worldcup_poses,
-    )
+    from synthcal.generate.worldcup import montage_poses, real_camera_lines, real_cameras
 
     config = load_config(args.config)
     spec = config.resolve("worldcup2014")
     grid = config.config.grids[args.grid]
     scene = load_scene(spec)
-    poses = load_worldcup_poses()
-    H = convert_homographies(poses.homographies, spec.image_size)
-    fields = camera_fields(H, scene, spec.image_size, spec.focal_reference_width)
-    inside = in_grid(fields, grid)
-    n = len(H)
-    print(f"World Cup 2014: {n} real cameras ({', '.join(f'{k} {b - a}' for k, (a, b) in poses.partition.items())}),"
-          f" fitted at {spec.image_size[0]} × {spec.image_size[1]}, focal at width {spec.focal_reference_width}")
-    print(f"{'':10s}{'min':>9s}{'median':>9s}{'max':>9s}   grid {args.grid!r}")
-    fields["x"], fields["y"] = bird_eye_to_pitch(fields["x"], fields["y"])
-    fields["z"] = fields["z"] / scene.pixels_per_metre
-    for axis in ("pan_deg", "tilt_deg", "focal_px", "roll_deg", "x", "y", "z", "rms_px"):
-        values = fields[axis]
-        rule = ""
-        if axis in inside:
-            limits = getattr(grid, axis)
-            rule = f"{limits.start:g}..{limits.stop:g}: {inside[axis].sum()} inside"
-        label = f"{axis} (m)" if axis in ("x", "y", "z") else axis
-        print(f"{label:10s}{values.min():9.1f}{np.median(values):9.1f}{values.max():9.1f}   {rule}")
-    print("(x, y: pitch metres, y growing away from the camera; z: height)")
-    print(f"inside the {args.grid!r} grid's pan, tilt and focal ranges: {inside['all'].sum()} of {n} "
-          f"({100 * inside['all'].mean():.1f} %)")
+    cameras = real_cameras(spec, scene, grid)
+    print("\n".join(real_camera_lines(cameras, spec, args.grid, grid)))
     if args.montage is not None:
         from synthcal.generate.pipeline import render_samples
         from synthcal.viz import sample_strip, tile
 
         # Rendered exactly as in the store (same appearance stream per pool index).
-        first, stop = poses.partition["test"]
         strips = []
-        for k in np.linspace(first, stop - 1, args.count).round().astype(int):
-            image, semantic = render_samples(scene, H[k:k + 1], int(k), spec)
+        for k in montage_poses(cameras.poses, args.count):
+            image, semantic = render_samples(scene, cameras.homographies[k:k + 1], int(k), spec)
             strips.append(sample_strip(image[0], semantic[0], scene.palette))
         print(f"montage of {args.count} test poses: {write_picture(args.montage, tile(strips, columns=2))}")
 
@@ -367,7 +341,7 @@ def _cmd_demo(args: argparse.Namespace) -> None:
         size = sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
         print(f"  {name:16s} {spec.pool_size:6d} samples  {time.perf_counter() - started:6.1f} s  "
               f"{size / spec.pool_size / 1024:6.1f} KiB/sample  {path}")
-        rows.append((name, _demo_examples(path)))
+        rows.append((name, demo_examples(path)))
     montage = write_png(out / "montage.png", labelled_rows(rows))
     print(f"montage: {montage}  (per dataset two samples with labelled ground: image | semantic map | overlay)")
     if args.no_bench:
@@ -375,7 +349,7 @@ def _cmd_demo(args: argparse.Namespace) -> None:
     _demo_bench(args, config, out)
 
 
-def _demo_examples(store: Path, count: int = 2) -> list[np.ndarray]:
+def demo_examples(store: Path, count: int = 2) -> list[np.ndarray]:
     """``count`` sample strips of a store for the demo montage, chosen among its first 64 for labelled ground."""
     from synthcal.store import attributes, open_store, read_samples
     from synthcal.viz import non_empty_examples, sample_strip
@@ -420,80 +394,25 @@ DEFAULT_METRIC = "iou_weighted"
 
 def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool,
                   metric: str = DEFAULT_METRIC) -> None:
-    """Print the tables of a results frame, one per segmentation / profile in it.
+    """Print :func:`synthcal.eval.report.results_tables`."""
+    from synthcal.eval.report import ReportError, results_tables
 
-    ``layout`` None picks ``models`` for own-dictionary datasets and ``mixed`` for
-    mixed ones, each where there are results. ``metric``: the column shown.
-    """
-    from synthcal.eval.harness import table_runs
-    from synthcal.eval.tables import format_table
-
-    if frame.empty:
-        raise _UserError("no finished runs in the results folder")
-    frame = table_runs(frame)
-    for title, part in _split_by(frame, ("segmentation", "profile")):
-        mixed = part["dataset"].str.startswith("mixed-")
-        layouts = [layout] if layout else [name for name, rows in (("models", ~mixed), ("mixed", mixed)) if rows.any()]
-        for name in layouts:
-            if title and fmt != "csv":
-                print(f"{'%' if fmt == 'latex' else '###'} {title}\n")
-            try:
-                print(format_table(part, name, fmt, value=metric, compare_paper=compare_paper,
-                                   aliases={"soccer": "worldcup2014"}))
-            except ValueError as error:
-                raise _UserError(f"table {name!r}: {error}") from None
-
-
-def _paired_sides(frame: pd.DataFrame, sides: Sequence[str]) -> tuple[str, str, str]:
-    """``--paired A B`` → ``(key, a, b)``: model labels or estimator names (``baseline`` is ``sha2020``),
-    or ``KEY=VALUE`` for another key (``loss=top-mse loss=mse``)."""
-    from synthcal.eval.tables import PAIR_KEYS
-
-    keys, values = [], []
-    for side in sides:
-        key, _, value = side.rpartition("=")
-        key = key or "model"
-        if key not in PAIR_KEYS or key == "dataset":
-            raise _UserError(f"--paired: cannot pair over {key!r} (value {side!r}); a model, or KEY=VALUE with KEY "
-                             f"one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
-        if key == "model":  # an estimator's name stands for its table label
-            names = list(frame.loc[frame["estimator"] == value, "model"]) if "estimator" in frame else []
-            value = str(names[0]) if names else value
-        present = set(frame[key].dropna().astype(str)) if key in frame else set()
-        if value not in present:
-            raise _UserError(f"--paired: no runs with {key} {value!r}; present: {', '.join(sorted(present)) or 'none'}")
-        keys.append(key)
-        values.append(value)
-    if keys[0] != keys[1]:
-        raise _UserError(f"--paired: both sides must vary the same key (value {' '.join(sides)!r})")
-    return keys[0], values[0], values[1]
+    try:
+        for block in results_tables(frame, layout, fmt, compare_paper, metric):
+            print(block)
+    except ReportError as error:
+        raise _UserError(str(error)) from None
 
 
 def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str) -> None:
-    """``table --paired A B``: per-seed differences A − B per cell, beside the paper's difference."""
-    from synthcal.eval.harness import table_runs
-    from synthcal.eval.tables import format_paired
+    """Print :func:`synthcal.eval.report.paired_report`."""
+    from synthcal.eval.report import ReportError, paired_report
 
-    key, a, b = _paired_sides(frame, sides)
     try:
-        # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
-        # not over the key compared (its one value would be paired with itself).
-        frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
-        print(format_paired(frame, a, b, key, fmt, metric, aliases={"soccer": "worldcup2014"}))
-    except ValueError as error:
+        text = paired_report(frame, sides, fmt, metric)
+    except ReportError as error:
         raise _UserError(f"--paired: {error}") from None
-
-
-def _split_by(frame: pd.DataFrame, keys: Sequence[str]) -> list[tuple[str, pd.DataFrame]]:
-    """Parts of ``frame`` with one value of each key; rows where a key is missing join every part."""
-    parts = [("", frame)]
-    for key in keys:
-        values = sorted(frame[key].dropna().unique())
-        if len(values) <= 1:
-            continue
-        parts = [(f"{title}; {key}: {value}".lstrip("; "), part[(part[key] == value) | part[key].isna()])
-                 for title, part in parts for value in values]
-    return parts
+    print(text)
 
 
 class _UserError(ValueError):
@@ -663,25 +582,21 @@ def _add_config(parser: argparse.ArgumentParser) -> None:
                         help="datasets.yaml to use (default: ./datasets.yaml, else the packaged one)")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from synthcal import __version__
-
-    parser = argparse.ArgumentParser(prog="synthcal", description=__doc__.splitlines()[0])
-    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
-                        help="print the version and exit")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
-                                help="one of the commands below; `synthcal COMMAND -h` tells more")
-
+def _add_scenes(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("scenes", help="list the scenes")
     _add_config(p)
     p.set_defaults(func=_cmd_scenes)
 
+
+def _add_scene(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("scene", help="draw one scene (bird's-eye RGB and semantic map)")
     p.add_argument("name", help="a scene name (see `synthcal scenes`)")
     p.add_argument("-o", "--output", type=_picture_path, required=True, help="picture to write (.png, .jpg)")
     _add_config(p)
     p.set_defaults(func=_cmd_scene)
 
+
+def _add_osm(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("osm", help="build a scene from an OpenStreetMap extract around a centre: writes image.png "
                                     "and semantic.png (class ids) and prints the datasets.yaml entry")
     p.add_argument("file", type=Path, help=".osm, .osm.pbf or .osm.bz2 extract")
@@ -695,11 +610,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", type=Path, required=True, help="folder receiving image.png and semantic.png")
     p.set_defaults(func=_cmd_osm)
 
+
+def _add_datasets(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("datasets", help="list every dataset name generate and bench accept, one line each")
     p.add_argument("--profile", default=None, help="show the pool sizes under this profile of datasets.yaml")
     _add_config(p)
     p.set_defaults(func=_cmd_datasets)
 
+
+def _add_generate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("generate", help="generate the sharded store of datasets")
     p.add_argument("datasets", nargs="+", metavar="DATASET", help="dataset names (see `synthcal datasets`)")
     p.add_argument("--profile", default=None, help="profile of datasets.yaml (smoke, demo, quick, paper)")
@@ -714,6 +633,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_config(p)
     p.set_defaults(func=_cmd_generate)
 
+
+def _add_split(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("split", help="draw the per-seed train/test/dictionary splits inside a store")
     p.add_argument("store", type=Path, help="the store, e.g. work/data/intersection-1.zarr")
     p.add_argument("--seeds", default=None, help="e.g. 0-4 or 0,2,5 (default: the store's split_seeds)")
@@ -722,6 +643,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"{name} size (default: the store's recorded configuration)")
     p.set_defaults(func=_cmd_split)
 
+
+def _add_worldcup_stats(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("worldcup-stats", help="the real World Cup 2014 cameras against a camera grid")
     p.add_argument("--grid", default="soccer", help="grid of datasets.yaml (default soccer)")
     p.add_argument("--montage", type=_picture_path, default=None,
@@ -730,16 +653,22 @@ def build_parser() -> argparse.ArgumentParser:
     _add_config(p)
     p.set_defaults(func=_cmd_worldcup_stats)
 
+
+def _add_info(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("info", help="what a store holds (from its attributes)")
     p.add_argument("store", type=Path, help="the store, NAME.zarr (or an unfinished NAME.zarr.partial)")
     p.add_argument("--json", action="store_true", help="print the raw attributes")
     p.set_defaults(func=_cmd_info)
 
+
+def _add_verify(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("verify", help="read stores back whole: manifest, every shard index and chunk checksum, "
                                        "every chunk decodes; exit 1 when any file is damaged")
     p.add_argument("stores", nargs="+", type=Path, metavar="STORE", help="the stores to check")
     p.set_defaults(func=_cmd_verify)
 
+
+def _add_show(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("show", help="montage of samples: image | semantic | overlay")
     p.add_argument("store", type=Path, help="the store, NAME.zarr")
     p.add_argument("-n", type=_positive_int, default=16, help="samples shown, evenly spaced in the pool (default 16)")
@@ -747,6 +676,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--columns", type=_positive_int, default=None, help="samples per row (default: about square)")
     p.set_defaults(func=_cmd_show)
 
+
+def _add_demo(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("demo", help="generate every built-in dataset at demo size, draw a montage, "
                                      "run a small benchmark on one scene and print its table")
     p.add_argument("--out", type=Path, default=Path("work/demo"), help="output folder (default work/demo)")
@@ -757,6 +688,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_config(p)
     p.set_defaults(func=_cmd_demo)
 
+
+def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("bench", help="fit and score estimators over datasets and seeds (resumable)")
     p.add_argument("--data", type=Path, required=True, help="folder holding the stores NAME.zarr")
     p.add_argument("--datasets", nargs="+", required=True, metavar="NAME",
@@ -800,6 +733,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_config(p)
     p.set_defaults(func=_cmd_bench)
 
+
+def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("table", help="the paper's tables from a results folder")
     p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
     p.add_argument("--layout", choices=["models", "matching", "mixed"], default=None,
@@ -818,6 +753,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(loss=top-mse loss=mse)")
     p.set_defaults(func=_cmd_table)
 
+
+def _add_plot(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("plot", help="IoU bars per dataset and estimator, and overlays of test images")
     p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
     p.add_argument("-o", "--output", type=Path, required=True, help="folder receiving the PNGs")
@@ -826,6 +763,31 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the metric the bars and overlay titles show: iou_weighted (default), iou, iou_bg, "
                         "iou_part, iou_whole (as for table)")
     p.set_defaults(func=_cmd_plot)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``synthcal`` parser: one sub-command per ``_add_*`` function."""
+    from synthcal import __version__
+
+    parser = argparse.ArgumentParser(prog="synthcal", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                        help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                help="one of the commands below; `synthcal COMMAND -h` tells more")
+    _add_scenes(sub)
+    _add_scene(sub)
+    _add_osm(sub)
+    _add_datasets(sub)
+    _add_generate(sub)
+    _add_split(sub)
+    _add_worldcup_stats(sub)
+    _add_info(sub)
+    _add_verify(sub)
+    _add_show(sub)
+    _add_demo(sub)
+    _add_bench(sub)
+    _add_table(sub)
+    _add_plot(sub)
     return parser
 
 
@@ -841,7 +803,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         command = args.command
-        return _run(args)
+        return run_command(args)
     except KeyboardInterrupt:
         return _interrupted(command)
 
@@ -859,7 +821,7 @@ def _interrupted(command: str | None) -> int:
     return 130
 
 
-def _run(args: argparse.Namespace) -> int:
+def run_command(args: argparse.Namespace) -> int:
     """Run the command; user errors (bad input, files, stores) as one line, exit 2."""
     from synthcal.config import ConfigError
     from synthcal.estimators import EstimatorError
@@ -867,7 +829,7 @@ def _run(args: argparse.Namespace) -> int:
     from synthcal.store import StoreError
 
     default_format = warnings.formatwarning
-    warnings.formatwarning = functools.partial(_format_warning, default_format)
+    warnings.formatwarning = functools.partial(format_warning, default_format)
     try:
         status = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here rather than at exit
@@ -899,7 +861,7 @@ def _stdout_gone() -> int:
     return 141  # 128 + SIGPIPE, what a shell reports for a writer killed by the closed pipe
 
 
-def _format_warning(default: Callable[..., str], message: Warning | str, category: type[Warning],
+def format_warning(default: Callable[..., str], message: Warning | str, category: type[Warning],
                     *args: Any, **kwargs: Any) -> str:
     """synthcal's own warnings as ``synthcal: warning: …`` (they name their file); others as Python does."""
     if category.__module__.startswith("synthcal"):

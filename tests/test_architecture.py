@@ -6,6 +6,10 @@ relative (``from . import x``, ``from ..generate import render``) — is checked
 against :data:`CONTRACT`. A failure lists every offending import with its file and
 line. The packages must also form no import cycle.
 
+Private names stay in their module (issue 21): no file under ``synthcal/``,
+``tests/`` or ``benchmarks/`` imports or reaches for a ``_name`` of another synthcal
+module (:func:`private_uses_in` says what counts).
+
 The contract, package by package (a package may always import its own modules):
 
 * ``config``, ``models``, ``utils`` import nothing of synthcal;
@@ -24,6 +28,7 @@ The contract, package by package (a package may always import its own modules):
 from __future__ import annotations
 
 import ast
+import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -281,3 +286,170 @@ def test_checker_reports_cycles_and_unknown_packages(tmp_path):
     found = violations(all_imports(tmp_path, "fake"), CONTRACT)
     assert any(line.startswith("fake/plugins/__init__.py:1: fake.plugins imports fake.config: package 'plugins'")
                for line in found), found
+
+
+# --- private names stay in their module -----------------------------------------------------------
+
+
+def is_private(name: str) -> bool:
+    """``_x`` is private; ``__x__`` (a dunder) and ``__x`` at module level are not this test's business."""
+    return name.startswith("_") and not name.startswith("__")
+
+
+def dotted(node: ast.expr) -> str | None:
+    """``a.b.c`` → ``"a.b.c"``; anything but a chain of names and attributes → None."""
+    parts = []
+    while isinstance(node, ast.Attribute):
+        parts.append(node.attr)
+        node = node.value
+    if not isinstance(node, ast.Name):
+        return None
+    return ".".join([node.id, *reversed(parts)])
+
+
+@dataclass
+class Scope:
+    """What a source file's names mean: its module, its package, and the local names bound to ``top`` modules."""
+
+    root: Path
+    top: str
+    own: str | None  # the file's module, whose private names it may use (None: a test, or a program string)
+    package: str  # for relative imports
+    modules: dict[str, str]  # local name → the module it is bound to
+
+    def base_of(self, node: ast.ImportFrom) -> str:
+        """The module a ``from … import`` reads from, relative imports resolved."""
+        if not node.level:
+            return node.module or ""
+        parts = self.package.split(".")
+        return ".".join(parts[:len(parts) - node.level + 1] + ([node.module] if node.module else []))
+
+    def module_named(self, chain: str) -> str | None:
+        """The module that the dotted ``chain`` of local names and attributes names, else None."""
+        head, *rest = chain.split(".")
+        module = self.modules.get(head)
+        for part in rest:
+            if module is None or not is_module(f"{module}.{part}", self.root):
+                return None
+            module = f"{module}.{part}"
+        return module
+
+    def private_of(self, module: str | None, name: str) -> str | None:
+        """``module.name`` when it is another ``top`` module's private name, else None."""
+        if module and (module == self.top or module.startswith(self.top + ".")) and module != self.own \
+                and is_private(name):
+            return f"{module}.{name}"
+        return None
+
+
+def scope_of(tree: ast.Module, path: Path, root: Path, top: str, program: bool) -> Scope:
+    """The :class:`Scope` of one parsed file (or of a program string in it, ``program=True``)."""
+    own = module_name(path, root) if path.is_relative_to(root / top) else None
+    package = (own if path.name == "__init__.py" else own.rpartition(".")[0]) if own else ""
+    scope = Scope(root, top, None if program else own, package, {top: top})
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            scope.modules.update({alias.asname: alias.name for alias in node.names  # plain ``import top.m`` binds top
+                                  if alias.asname and alias.name.startswith(top + ".")})
+        elif isinstance(node, ast.ImportFrom):
+            base = scope.base_of(node)
+            scope.modules.update({alias.asname or alias.name: f"{base}.{alias.name}" for alias in node.names
+                                  if is_module(f"{base}.{alias.name}", root)})
+    return scope
+
+
+def private_use(node: ast.AST, scope: Scope) -> str | None:
+    """The private name one attribute, ``setattr``-like call or dotted-path string reaches for, else None."""
+    if isinstance(node, ast.Attribute) and (chain := dotted(node.value)):
+        return scope.private_of(scope.module_named(chain), node.attr)
+    if (isinstance(node, ast.Call) and len(node.args) >= 2
+            and (dotted(node.func) or "").rpartition(".")[2] in ("setattr", "getattr", "delattr")
+            and (chain := dotted(node.args[0])) and isinstance(name := node.args[1], ast.Constant)
+            and isinstance(name.value, str)):
+        return scope.private_of(scope.module_named(chain), name.value)
+    if isinstance(node, ast.Constant) and isinstance(node.value, str) and re.fullmatch(r"[\w.]+", node.value):
+        chain, _, attr = node.value.rpartition(".")  # as monkeypatch.setattr("top.m._x", …) takes
+        return scope.private_of(scope.module_named(chain), attr) if chain else None
+    return None
+
+
+def program_in(node: ast.AST, top: str) -> str | None:
+    """The text of a string constant that mentions ``top`` and parses as Python (a ``python -c`` program)."""
+    if not (isinstance(node, ast.Constant) and isinstance(node.value, str) and top in node.value):
+        return None
+    try:
+        ast.parse(node.value)
+    except SyntaxError:
+        return None  # prose
+    return node.value
+
+
+def private_uses_in(source: str, path: Path, root: Path, top: str, line_offset: int = 0,
+                    program: bool = False) -> Iterator[str]:
+    """Every private name of another ``top`` module that ``source`` imports or reaches for: ``file:line: …``.
+
+    Counted: ``from M import _x``; ``M._x`` through a name bound to module ``M`` (by
+    ``import … as``, ``from P import M``, or the top package's name); ``setattr``/
+    ``getattr``/``delattr`` (``monkeypatch``'s too) of a ``"_x"`` on a module;
+    ``"top.M._x"`` dotted-path strings; and code inside string constants (a
+    ``python -c`` program, ``program=True``: it runs as ``__main__``, so even its own
+    file's private names are another module's). A module's own private names, and
+    private members of classes, are left alone.
+    """
+    tree = ast.parse(source, str(path))
+    scope = scope_of(tree, path, root, top, program)
+    relative = path.relative_to(root)
+    for node in ast.walk(tree):
+        line = line_offset + getattr(node, "lineno", 0)
+        if isinstance(node, ast.ImportFrom):
+            base = scope.base_of(node)
+            yield from (f"{relative}:{line}: imports {found}" for alias in node.names
+                        if (found := scope.private_of(base, alias.name)))
+        elif found := private_use(node, scope):
+            yield f"{relative}:{line}: uses {found}"
+        elif (text := program_in(node, top)) is not None:
+            yield from private_uses_in(text, path, root, top, line - 1, program=True)
+
+
+def private_uses(root: Path, top: str, folders: tuple[str, ...]) -> list[str]:
+    """:func:`private_uses_in` over every ``.py`` file under ``folders`` of ``root``, sorted, without repeats."""
+    found = {use for folder in folders for path in sorted((root / folder).rglob("*.py"))
+             for use in private_uses_in(path.read_text(), path, root, top)}
+    return sorted(found, key=lambda use: (use.split(":")[0], int(use.split(":")[1]), use))
+
+
+# Left for the scenes move of issue 21, which owns osm.py (the lead makes them public at the merge):
+# file → the private names it may still use.
+PENDING_PRIVATE = {"tests/generate/test_osm.py": ("._MEMORY", "._paint")}
+
+
+def test_no_private_name_crosses_a_module():
+    found = [use for use in private_uses(ROOT, TOP, (TOP, "tests", "benchmarks"))
+             if not use.endswith(PENDING_PRIVATE.get(use.split(":")[0], ()))]
+    assert not found, ("private names of synthcal used outside their module (make them public and documented, "
+                       "or move them to where they are used):\n" + "\n".join(found))
+
+
+def test_private_checker_finds_imports_attributes_monkeypatches_and_code_strings(tmp_path):
+    write_tree(tmp_path, {
+        "fake/__init__.py": "",
+        "fake/eval/__init__.py": "",
+        "fake/eval/runs.py": "def _parameters(): ...\n\n\ndef public(): return _parameters()\n",
+        "fake/eval/isolation.py": ("from .runs import _parameters, public\nfrom fake.eval import runs\n\n\n"
+                                   "def f():\n    return runs._helper(), runs.public()\n"
+                                   "CODE = 'from fake.eval.isolation import _child; _child()'\n"
+                                   "OWN = 'from fake.eval.runs import public'\n"),
+        "tests/test_x.py": ("import fake.eval.runs as r\nimport fake.eval.isolation\n\n\n"
+                            "def test(monkeypatch):\n    monkeypatch.setattr(r, '_p', 1)\n"
+                            "    monkeypatch.setattr('fake.eval.runs._q', 2)\n"
+                            "    fake.eval.isolation._z()\n    r.Runner()._method()\n    getattr(r, 'public')\n"),
+    })
+    found = private_uses(tmp_path, "fake", ("fake", "tests"))
+    assert found == [
+        "fake/eval/isolation.py:1: imports fake.eval.runs._parameters",
+        "fake/eval/isolation.py:6: uses fake.eval.runs._helper",
+        "fake/eval/isolation.py:7: imports fake.eval.isolation._child",  # its own, but the program runs as __main__
+        "tests/test_x.py:6: uses fake.eval.runs._p",
+        "tests/test_x.py:7: uses fake.eval.runs._q",
+        "tests/test_x.py:8: uses fake.eval.isolation._z",
+    ], "\n".join(found)

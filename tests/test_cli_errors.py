@@ -92,7 +92,7 @@ def test_ctrl_c_is_exit_130_for_every_command(monkeypatch, capsys, argv, resumes
     def interrupted(args: argparse.Namespace) -> int:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "_run", interrupted)
+    monkeypatch.setattr(cli, "run_command", interrupted)
     assert main(argv) == 130
     line = one_line(capsys.readouterr().err)
     assert line.startswith("synthcal: interrupted")
@@ -276,7 +276,7 @@ def test_split_warns_when_it_replaces_splits_of_other_sizes(smoke_stores, tmp_pa
     with pytest.warns(SplitsResized) as caught:
         assert main(["split", str(store), "--seeds", "1", "--train", "10"]) == 0
     assert [str(w.message) for w in caught] == [expected]
-    assert cli._format_warning(warnings.formatwarning, caught[0].message, SplitsResized, "", 0) == \
+    assert cli.format_warning(warnings.formatwarning, caught[0].message, SplitsResized, "", 0) == \
         f"synthcal: warning: {expected}\n"
 
 

@@ -36,11 +36,11 @@ def test_labelled_rows_put_each_label_left_of_its_pictures():
 
 
 def test_demo_examples_of_a_store_are_labelled(smoke_stores):
-    from synthcal.cli import _demo_examples
+    from synthcal.cli import demo_examples
     from synthcal.store import open_store
 
     store = smoke_stores.path("soccer")
-    strips = _demo_examples(store)
+    strips = demo_examples(store)
     assert len(strips) == 2
     semantic = open_store(store)["semantic"][:]
     width = semantic.shape[2]

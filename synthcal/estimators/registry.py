@@ -19,14 +19,15 @@ from typing import Any
 
 from synthcal.estimators.protocol import Estimator, EstimatorError
 
-__all__ = ["ENTRY_POINT_GROUP", "bundled_estimators", "known_estimators", "resolve_estimator", "load_estimator"]
+__all__ = ["ENTRY_POINT_GROUP", "bundled_estimators", "known_estimators", "estimator_entry_points", "resolve_estimator", "load_estimator"]
 
 ENTRY_POINT_GROUP = "synthcal.estimators"
 # The distribution whose entry points are the bundled estimators.
 _DISTRIBUTION = "synthcal"
 
 
-def _entry_points() -> list[metadata.EntryPoint]:
+def estimator_entry_points() -> list[metadata.EntryPoint]:
+    """Every installed entry point of the group :data:`ENTRY_POINT_GROUP`, bundled and plug-in alike."""
     # Looked up through the module at call time so tests can monkeypatch it.
     return list(metadata.entry_points(group=ENTRY_POINT_GROUP))
 
@@ -38,7 +39,7 @@ def _is_bundled(entry_point: metadata.EntryPoint) -> bool:
 
 def _by_name() -> dict[str, metadata.EntryPoint]:
     """Entry points by name, synthcal's own first: a third-party name cannot shadow a bundled one."""
-    entry_points = sorted(_entry_points(), key=lambda ep: not _is_bundled(ep))  # stable: bundled first
+    entry_points = sorted(estimator_entry_points(), key=lambda ep: not _is_bundled(ep))  # stable: bundled first
     found: dict[str, metadata.EntryPoint] = {}
     for ep in entry_points:
         found.setdefault(ep.name, ep)
@@ -47,7 +48,7 @@ def _by_name() -> dict[str, metadata.EntryPoint]:
 
 def bundled_estimators() -> dict[str, str]:
     """Bundled short names → ``module:Class`` (synthcal's own entry points)."""
-    return {ep.name: ep.value for ep in _entry_points() if _is_bundled(ep)}
+    return {ep.name: ep.value for ep in estimator_entry_points() if _is_bundled(ep)}
 
 
 def known_estimators() -> dict[str, str]:

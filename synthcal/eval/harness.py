@@ -81,12 +81,11 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from synthcal.data import read_scene
-from synthcal.eval.isolation import DEFAULT_TIMEOUT, _estimate_isolated, _load_split, _write_atomic
+from synthcal.eval.isolation import DEFAULT_TIMEOUT, estimate_isolated, load_run_split, write_text_atomic
 from synthcal.eval.metrics import METRICS, evaluate, summarize
 from synthcal.eval.runs import (
     AXES,
     Run,
-    _table_label,
     check_device,
     dataset_store,
     estimator_label,
@@ -95,6 +94,7 @@ from synthcal.eval.runs import (
     prefix_positions,
     resolve_device,
     split_sizes,
+    table_label,
     training_budget,
 )
 from synthcal.store import StoreError, attributes, open_store
@@ -198,8 +198,8 @@ def execute_run(run: Run, results: str | Path, device: str | None = None, progre
     # Scoring reads its own copy of the scene and the test split, loaded here: the
     # estimator, in its own process, cannot reach it.
     scene = read_scene(run.store)
-    test = _load_split(run, "test", scene)
-    outcome = _estimate_isolated(run, results, progress, timeout)
+    test = load_run_split(run, "test", scene)
+    outcome = estimate_isolated(run, results, progress, timeout)
     if "data_error" in outcome:
         raise StoreError(outcome["data_error"])
     estimates, failure = outcome.pop("estimates"), outcome.pop("error")
@@ -215,10 +215,10 @@ def execute_run(run: Run, results: str | Path, device: str | None = None, progre
     frame.insert(0, "test_index", np.arange(len(frame)))
     frame[_H_COLUMNS] = _estimate_columns(estimates, len(frame))
     folder.mkdir(parents=True, exist_ok=True)
-    _write_atomic(folder / "metrics.csv", frame.to_csv(index=False))
+    write_text_atomic(folder / "metrics.csv", frame.to_csv(index=False))
     record = {"run": asdict(run), "id": run.id, "status": "failed" if failure else "ok", "error": failure,
               "device": run.device, **outcome, "summary": summarize(frame)}
-    _write_atomic(folder / "run.json", json.dumps(record, indent=2, default=str))
+    write_text_atomic(folder / "run.json", json.dumps(record, indent=2, default=str))
     return folder
 
 
@@ -309,7 +309,7 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
             continue
         run = record["run"]
         try:
-            row = {"dataset": _table_label(run), "model": run["model"], "training": run["training"], "loss": run["loss"],
+            row = {"dataset": table_label(run), "model": run["model"], "training": run["training"], "loss": run["loss"],
                    "matching_score": run["matching"], "segmentation": run["segmentation"],
                    "profile": run["profile"], "seed": run["seed"], "estimator": run["estimator"]}
             summary = record["summary"]

@@ -1,9 +1,9 @@
 """One run's estimator in a process of its own (SPEC §9).
 
-:func:`synthcal.eval.harness.execute_run` calls :func:`_estimate_isolated`, which
-starts ``python -c … _run_child`` (this module's entry point, in a session of its
+:func:`synthcal.eval.harness.execute_run` calls :func:`estimate_isolated`, which
+starts ``python -c … run_child`` (this module's entry point, in a session of its
 own). That process loads the scene and splits as the run uses them
-(:func:`_load_split`: capped by the run's split sizes), makes every array
+(:func:`load_run_split`: capped by the run's split sizes), makes every array
 read-only (``writeable=False``, views that cannot be made writeable again),
 constructs the estimator (:func:`_options`: its axes and the services its
 constructor takes), fits and predicts, and hands back the estimates as plain JSON
@@ -47,12 +47,12 @@ import numpy as np
 
 from synthcal.data import SplitDataset, StoreScene, load_pool_dictionary, load_split, read_scene
 from synthcal.estimators import SemanticEstimator, load_estimator, resolve_estimator
-from synthcal.eval.runs import AXES, Run, _parameters, prefix_positions
+from synthcal.eval.runs import AXES, Run, constructor_parameters, prefix_positions
 from synthcal.store import StoreError
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent
 
-__all__ = ["DEFAULT_TIMEOUT"]
+__all__ = ["DEFAULT_TIMEOUT", "estimate_isolated", "load_run_split", "run_child", "write_text_atomic"]
 
 # Per-run time limit of ``synthcal bench --timeout`` (seconds): generous, it only
 # catches an estimator that hangs; the paper-size runs take minutes to an hour.
@@ -66,14 +66,15 @@ _POLL_SECONDS = 0.05
 _NOT_NUMERIC = "not numeric"
 
 
-def _write_atomic(path: Path, text: str) -> None:
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically: a reader sees the old file or the whole new one."""
     with atomic_write(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
 
 
 def _options(run: Run, cls: Any, results: Path, progress: bool) -> dict[str, Any]:
     """Constructor keywords for the run: its axes and the services the class accepts."""
-    params = _parameters(cls)
+    params = constructor_parameters(cls)
     offered = {a: getattr(run, a) for a in AXES if getattr(run, a) is not None}
     offered.update(settings=run.settings, device=run.device, cache_dir=str(results / "cache"), seed=run.seed,
                    progress=progress)
@@ -106,7 +107,7 @@ def _read_only_split(split: SplitDataset, scene: StoreScene) -> SplitDataset:
     return split
 
 
-def _load_split(run: Run, split: str, scene: StoreScene) -> SplitDataset:
+def load_run_split(run: Run, split: str, scene: StoreScene) -> SplitDataset:
     """One split of the run as it uses it: capped by ``run.limits`` (:func:`prefix_positions`).
 
     Raises:
@@ -168,7 +169,7 @@ def _estimate(run: Run, results: Path, progress: bool, stage: Callable[[str], No
     stage(name)
     try:
         scene = _read_only_scene(read_scene(run.store))
-        splits = {split: _read_only_split(_load_split(run, split, scene), scene)
+        splits = {split: _read_only_split(load_run_split(run, split, scene), scene)
                   for split in ("train", "test", "dictionary")}
         outcome["sizes"] = {split: len(data) for split, data in splits.items()}
     except StoreError as error:  # the data, not the estimator: stops the sweep (module docstring)
@@ -203,7 +204,7 @@ def _estimate(run: Run, results: Path, progress: bool, stage: Callable[[str], No
     return outcome
 
 
-def _run_child(exchange: str) -> None:
+def run_child(exchange: str) -> None:
     """Entry point of a run's own process: ``request.json`` in, ``stage``, ``result.json`` out."""
     import faulthandler
 
@@ -221,7 +222,7 @@ def _run_child(exchange: str) -> None:
 
     run = Run(**request["run"])
     outcome = _estimate(run, Path(request["results"]), request["progress"], stage)
-    _write_atomic(folder / "result.json", json.dumps(outcome))
+    write_text_atomic(folder / "result.json", json.dumps(outcome))
     # Skip the interpreter's teardown: threads or atexit hooks a plug-in left behind
     # must not hang or crash a run whose result is already written.
     sys.stdout.flush()
@@ -272,8 +273,19 @@ def _signal_name(number: int) -> str:
         return "unnamed"
 
 
-def _estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | None) -> dict[str, Any]:
-    """:func:`_estimate` in a process of its own, under the time limit (module docstring)."""
+def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | None) -> dict[str, Any]:
+    """:func:`_estimate` in a process of its own, under the time limit (module docstring).
+
+    Args:
+        run: the run to fit and predict.
+        results: the results folder; the exchange folder with the process lives beside it.
+        progress: whether the process shows progress bars.
+        timeout: seconds the process may take after its start-up; None: no limit.
+
+    Returns:
+        The outcome as plain JSON data: ``estimates`` (or None), ``error``, ``traceback``,
+        timings, and ``data_error`` when the process could not read the store.
+    """
     # Beside the results, not in /tmp: a temp-folder cleaner cannot pull it from under a
     # running child, and a folder left by a kill -9 stays where the user looks.
     exchange = Path(tempfile.mkdtemp(prefix=".exchange-", dir=results))
@@ -282,7 +294,7 @@ def _estimate_isolated(run: Run, results: Path, progress: bool, timeout: float |
                    "parent": os.getpid()}
         (exchange / "request.json").write_text(json.dumps(request), encoding="utf-8")
         command = [sys.executable, "-c",
-                   "import sys; from synthcal.eval.isolation import _run_child; _run_child(sys.argv[1])",
+                   "import sys; from synthcal.eval.isolation import run_child; run_child(sys.argv[1])",
                    str(exchange)]
         started = time.monotonic()
         # Its own session: a kill reaches the processes it starts (data loaders), and a

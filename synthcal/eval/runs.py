@@ -89,7 +89,7 @@ from synthcal.store.splits import (
 )
 
 __all__ = ["AXES", "Run", "dataset_store", "estimator_label", "resolve_device", "check_device", "expand_runs",
-           "split_sizes", "plan_lines", "prefix_positions", "training_budget"]
+           "split_sizes", "plan_lines", "prefix_positions", "training_budget", "constructor_parameters", "table_label"]
 
 # Run fields an estimator may take as constructor keywords (values: synthcal.config).
 AXES = ("training", "loss", "matching", "segmentation")
@@ -168,7 +168,7 @@ def dataset_store(data_dir: str | Path, label: str) -> tuple[Path, bool | None]:
     return data_dir / f"{label}.zarr", None
 
 
-def _parameters(cls: Any) -> set[str]:
+def constructor_parameters(cls: Any) -> set[str]:
     """Keyword names the estimator's constructor takes (none if it cannot be inspected)."""
     try:
         return set(inspect.signature(cls).parameters)
@@ -298,7 +298,7 @@ def _estimator_runs(name: str, base: dict[str, Any], values: dict[str, Sequence[
                     profile: str | None, settings: dict[str, Any] | None, device: str) -> list[Run]:
     """One estimator's runs on one dataset: its applicable axes × seeds."""
     cls = resolve_estimator(name)
-    params = _parameters(cls)
+    params = constructor_parameters(cls)
     applies = {a: (hasattr(cls, "predict_semantic") if a == "segmentation" else a in params) for a in AXES}
     grid: list[Sequence[str | None]] = [values[a] if applies[a] else [None] for a in AXES]
     runs = []
@@ -386,7 +386,7 @@ def plan_lines(runs: Sequence[Run]) -> list[str]:
     """
     datasets: dict[str, dict[int, dict[str, tuple[int, int]]]] = {}
     for run in runs:
-        seeds = datasets.setdefault(_table_label(asdict(run)), {})
+        seeds = datasets.setdefault(table_label(asdict(run)), {})
         if run.seed not in seeds:
             seeds[run.seed] = split_sizes(run)
     settings = next((run.settings for run in runs if run.settings), None)
@@ -409,7 +409,7 @@ def plan_lines(runs: Sequence[Run]) -> list[str]:
     return lines
 
 
-def _table_label(run: dict[str, Any]) -> str:
+def table_label(run: dict[str, Any]) -> str:
     """A run's dataset label in tables: ``NAME (pool)`` for a pool-dictionary run, so that it
     sits in a row of its own beside the same dataset's split-dictionary runs."""
     return f"{run['dataset']} (pool)" if run.get("dictionary") == "pool" else str(run["dataset"])

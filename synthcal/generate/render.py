@@ -55,6 +55,7 @@ __all__ = [
     "apply_appearance",
     "apply_appearance_on_ground",
     "foreground_fraction",
+    "supersampled",
 ]
 
 
@@ -172,8 +173,12 @@ def mask_invisible(image: np.ndarray, homography: np.ndarray, supersample: int =
     return _RowDepths.of(inverse_homography(homography), image.shape[:2], supersample).mask(image)
 
 
-def _supersampled(homography: np.ndarray, supersample: int) -> np.ndarray:
-    """The homography into an image ``supersample`` times finer (same pixel-centre rule)."""
+def supersampled(homography: np.ndarray, supersample: int) -> np.ndarray:
+    """The (3, 3) homography into an image ``supersample`` times finer (same pixel-centre rule).
+
+    A pixel centre ``(u, v)`` of the output becomes ``(s·u + (s − 1)/2, s·v + (s − 1)/2)``
+    in the finer image, ``s = supersample``.
+    """
     s = float(supersample)
     A = np.array([[s, 0.0, (s - 1) / 2], [0.0, s, (s - 1) / 2], [0.0, 0.0, 1.0]])
     return A @ homography
@@ -315,7 +320,7 @@ def render_image(
         # Warp only the rows that see ground, straight into their place in ``fine``.
         shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -rows.start], [0.0, 0.0, 1.0]])
         cv2.warpPerspective(
-            scene_image, shift @ _supersampled(np.asarray(homography, np.float64), s),
+            scene_image, shift @ supersampled(np.asarray(homography, np.float64), s),
             (width * s, rows.stop - rows.start), dst=fine[rows], flags=cv2.INTER_LINEAR,
             borderMode=cv2.BORDER_CONSTANT, borderValue=0,
         )

@@ -67,6 +67,10 @@ __all__ = [
     "camera_fields",
     "plan_poses",
     "in_grid",
+    "RealCameras",
+    "real_cameras",
+    "real_camera_lines",
+    "montage_poses",
 ]
 
 METRES_PER_YARD = 0.9144
@@ -344,3 +348,61 @@ def in_grid(fields: dict[str, np.ndarray], grid: GridConfig) -> dict[str, np.nda
         masks[axis] = (fields[axis] >= limits.start - 1e-9) & (fields[axis] <= limits.stop + 1e-9)
     masks["all"] = masks["pan_deg"] & masks["tilt_deg"] & masks["focal_px"]
     return masks
+
+
+@dataclass(frozen=True)
+class RealCameras:
+    """The World Cup 2014 cameras fitted at a dataset's image size, measured against a camera grid.
+
+    Attributes:
+        poses: the annotated frames (:func:`load_worldcup_poses`).
+        homographies: (N, 3, 3) bird's-eye → image at the dataset's image size.
+        fields: (N,) float64 per axis, as :func:`camera_fields`, but ``x``, ``y`` in
+            pitch metres (:func:`bird_eye_to_pitch`) and ``z`` in metres.
+        inside: (N,) bool masks of :func:`in_grid`.
+    """
+
+    poses: WorldCupPoses
+    homographies: np.ndarray
+    fields: dict[str, np.ndarray]
+    inside: dict[str, np.ndarray]
+
+
+def real_cameras(spec: DatasetSpec, scene: Scene, grid: GridConfig) -> RealCameras:
+    """Fit the real cameras at ``spec``'s image size on ``scene`` (the pitch) and test them against ``grid``."""
+    poses = load_worldcup_poses()
+    H = convert_homographies(poses.homographies, spec.image_size)
+    fields = camera_fields(H, scene, spec.image_size, spec.focal_reference_width)
+    inside = in_grid(fields, grid)
+    fields["x"], fields["y"] = bird_eye_to_pitch(fields["x"], fields["y"])
+    fields["z"] = fields["z"] / scene.pixels_per_metre
+    return RealCameras(poses, H, fields, inside)
+
+
+def real_camera_lines(cameras: RealCameras, spec: DatasetSpec, grid_name: str, grid: GridConfig) -> list[str]:
+    """The report of ``synthcal worldcup-stats``: min, median and max of each camera value, and how many
+    cameras lie inside the grid's ranges."""
+    n = len(cameras.homographies)
+    parts = ", ".join(f"{k} {b - a}" for k, (a, b) in cameras.poses.partition.items())
+    lines = [f"World Cup 2014: {n} real cameras ({parts}), fitted at {spec.image_size[0]} × {spec.image_size[1]}, "
+             f"focal at width {spec.focal_reference_width}",
+             f"{'':10s}{'min':>9s}{'median':>9s}{'max':>9s}   grid {grid_name!r}"]
+    for axis in ("pan_deg", "tilt_deg", "focal_px", "roll_deg", "x", "y", "z", "rms_px"):
+        values = cameras.fields[axis]
+        rule = ""
+        if axis in cameras.inside:
+            limits = getattr(grid, axis)
+            rule = f"{limits.start:g}..{limits.stop:g}: {cameras.inside[axis].sum()} inside"
+        label = f"{axis} (m)" if axis in ("x", "y", "z") else axis
+        lines.append(f"{label:10s}{values.min():9.1f}{np.median(values):9.1f}{values.max():9.1f}   {rule}")
+    lines.append("(x, y: pitch metres, y growing away from the camera; z: height)")
+    everything = cameras.inside["all"]
+    lines.append(f"inside the {grid_name!r} grid's pan, tilt and focal ranges: {everything.sum()} of {n} "
+                 f"({100 * everything.mean():.1f} %)")
+    return lines
+
+
+def montage_poses(poses: WorldCupPoses, count: int) -> np.ndarray:
+    """(count,) int64 pool indices of ``count`` test poses, evenly spaced over the test part."""
+    first, stop = poses.partition["test"]
+    return np.linspace(first, stop - 1, count).round().astype(np.int64)

@@ -54,7 +54,8 @@ from .losses import (
     topological_combination,
 )
 
-__all__ = ["MatchResult", "class_code", "pairwise_scores", "match_ground_truth", "merge_matches"]
+__all__ = ["MatchResult", "class_code", "pairwise_scores", "match_ground_truth", "merge_matches", "Encoded",
+           "encoded_scores"]
 
 SCORES = ("mse", "top_mse")
 
@@ -124,7 +125,7 @@ def _reorder(pixels: Tensor, order: Tensor | None) -> Tensor:
     return pixels if order is None else pixels.index_select(-1, order)
 
 
-class _Encoded:
+class Encoded:
     """Maps as rows of a matrix: pixels in patch-major order, channels innermost.
 
     ``vectors`` (N, H·W·D); ``norms`` (N, P) per-patch squared norms;
@@ -167,9 +168,18 @@ class _Encoded:
         )
 
 
-def _scores(q: _Encoded, t: _Encoded, score: str, grid: tuple[int, int], size: tuple[int, int],
+def encoded_scores(q: Encoded, t: Encoded, score: str, grid: tuple[int, int], size: tuple[int, int],
             alpha: float, beta: float, class_reduction: str) -> Tensor:
-    """(Q, T) scores of encoded queries against encoded templates."""
+    """(Q, T) scores of encoded queries against encoded templates (as :func:`pairwise_scores`).
+
+    Args:
+        q, t: the queries and templates, encoded with the same ``grid`` and class count.
+        score: one of :data:`SCORES` (``mse``, ``top-mse``).
+        grid: (rows, columns) of the Top-MSE patches.
+        size: (H, W) of the maps.
+        alpha, beta: weights of the topological combination of the patch scores.
+        class_reduction: ``sum`` or ``mean`` over the class channels.
+    """
     divisor = class_divisor(q.channels, class_reduction)
     if score == "mse":
         blocks, q_norms, t_norms = [(0, q.offsets[-1])], q.norms.sum(1, keepdim=True), t.norms.sum(1, keepdim=True)
@@ -227,9 +237,9 @@ def pairwise_scores(
     _check(queries, templates, score, class_reduction)
     size = (queries.shape[-2], queries.shape[-1])
     patches = grid if score == "top_mse" else (1, 1)
-    q = _Encoded(queries, patches, num_classes)
-    t = _Encoded(templates, patches, num_classes)
-    return _scores(q, t, score, grid, size, alpha, beta, class_reduction)
+    q = Encoded(queries, patches, num_classes)
+    t = Encoded(templates, patches, num_classes)
+    return encoded_scores(q, t, score, grid, size, alpha, beta, class_reduction)
 
 
 def match_ground_truth(
@@ -279,13 +289,13 @@ def match_ground_truth(
         return merged
     size = (queries.shape[-2], queries.shape[-1])
     patches = grid if score == "top_mse" else (1, 1)
-    t = _Encoded(templates, patches, num_classes)
+    t = Encoded(templates, patches, num_classes)
     buffer = None if queries.dtype.is_floating_point else t.vectors.new_empty(
         min(query_chunk, queries.shape[0]), t.vectors.shape[1])
     index, best = [], []
     for start in range(0, queries.shape[0], query_chunk):
-        q = _Encoded(queries[start:start + query_chunk], patches, num_classes, out=buffer)
-        value, position = _scores(q, t, score, grid, size, alpha, beta, class_reduction).min(dim=1)
+        q = Encoded(queries[start:start + query_chunk], patches, num_classes, out=buffer)
+        value, position = encoded_scores(q, t, score, grid, size, alpha, beta, class_reduction).min(dim=1)
         index.append(position)
         best.append(value)
     if not index:

@@ -91,16 +91,16 @@ def test_bundled_names_are_synthcals_entry_points():
 
 
 def test_a_plugin_cannot_shadow_a_bundled_name(monkeypatch):
-    real = registry._entry_points()
+    real = registry.estimator_entry_points()
     # Listed first, from no synthcal distribution: a third party's "identity".
     impostor = importlib.metadata.EntryPoint(name="identity", value="collections:OrderedDict", group=ENTRY_POINT_GROUP)
-    monkeypatch.setattr(registry, "_entry_points", lambda: [impostor, *real])
+    monkeypatch.setattr(registry, "estimator_entry_points", lambda: [impostor, *real])
     assert isinstance(load_estimator("identity"), IdentityEstimator)
     assert known_estimators()["identity"] == "synthcal.estimators.classic:IdentityEstimator"
 
 
 def test_missing_entry_points_are_explained(monkeypatch):
-    monkeypatch.setattr(registry, "_entry_points", lambda: [])
+    monkeypatch.setattr(registry, "estimator_entry_points", lambda: [])
     with pytest.raises(EstimatorError, match="unknown estimator 'identity'.*synthcal's entry points are missing"):
         load_estimator("identity")
 

@@ -420,12 +420,8 @@ def private_uses(root: Path, top: str, folders: tuple[str, ...]) -> list[str]:
 
 # Left for the scenes move of issue 21, which owns osm.py (the lead makes them public at the merge):
 # file → the private names it may still use.
-PENDING_PRIVATE = {"tests/generate/test_osm.py": ("._MEMORY", "._paint")}
-
-
 def test_no_private_name_crosses_a_module():
-    found = [use for use in private_uses(ROOT, TOP, (TOP, "tests", "benchmarks"))
-             if not use.endswith(PENDING_PRIVATE.get(use.split(":")[0], ()))]
+    found = list(private_uses(ROOT, TOP, (TOP, "tests", "benchmarks")))
     assert not found, ("private names of synthcal used outside their module (make them public and documented, "
                        "or move them to where they are used):\n" + "\n".join(found))
 

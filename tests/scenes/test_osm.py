@@ -168,9 +168,9 @@ def test_built_once_and_cached_by_content(osm_file, tmp_path, monkeypatch):
     monkeypatch.setenv("SYNTHCAL_CACHE", str(cache))
     first = build_osm_scene(osm_file, CENTER, SIZE_M, PPM, seed=1)
     assert len(list((cache / "osm").glob("*/image.png"))) == 1
-    osm._MEMORY.clear()
+    osm.forget_scenes_in_memory()
     calls = []
-    monkeypatch.setattr(osm, "_paint", lambda *a: calls.append(a))
+    monkeypatch.setattr(osm, "paint_window", lambda *a: calls.append(a))
     again = build_osm_scene(osm_file, CENTER, SIZE_M, PPM, seed=1)  # from the disk cache
     assert not calls and again.image.tobytes() == first.image.tobytes()
     assert again.semantic.tobytes() == first.semantic.tobytes()

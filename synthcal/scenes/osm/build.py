@@ -41,7 +41,7 @@ from ..intersection import PALETTE
 from .classes import CLASS_NAMES, ClassRules, class_rules, relevant_keys
 from .read import Frame, centre_inside, read_osm
 
-__all__ = ["build_osm_scene", "osm_attributes", "file_sha256", "OSM_LICENCE", "OSM_ATTRIBUTION", "cache_folder"]
+__all__ = ["build_osm_scene", "paint_window", "forget_scenes_in_memory", "osm_attributes", "file_sha256", "OSM_LICENCE", "OSM_ATTRIBUTION", "cache_folder"]
 
 OSM_LICENCE = "ODbL-1.0"
 OSM_ATTRIBUTION = "© OpenStreetMap contributors"
@@ -50,6 +50,11 @@ PAINTER_VERSION = 1
 
 _MEMORY: dict[str, Scene] = {}
 _HASHES: dict[tuple[str, int, int], str] = {}
+
+
+def forget_scenes_in_memory() -> None:
+    """Drop the scene this process keeps in memory, so the next build reads the disk cache (or paints)."""
+    _MEMORY.clear()
 
 
 def file_sha256(path: Path) -> str:
@@ -130,8 +135,12 @@ def _store_cached(folder: Path, image: np.ndarray, semantic: np.ndarray) -> None
         pass
 
 
-def _paint(path: Path, where: str, frame: Frame, rules: ClassRules, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Read and paint: (image, semantic)."""
+def paint_window(path: Path, where: str, frame: Frame, rules: ClassRules, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Read an extract's window and paint it, bypassing every cache.
+
+    Returns:
+        ``(image, semantic)``: (H, W, 3) uint8 RGB and (H, W) uint8 class map of ``frame``.
+    """
     from .dress import dress
     from .paint import paint_classes
 
@@ -194,12 +203,12 @@ def build_osm_scene(
     rules = class_rules(classes, f"{where}.classes ({path})")
     frame = Frame(lat, lon, width, height, ppm)
     if not cache:
-        return _scene(name, path, frame, *_paint(path, where, frame, rules, int(seed)))
+        return _scene(name, path, frame, *paint_window(path, where, frame, rules, int(seed)))
     key = _cache_key(file_sha256(path), frame, classes, int(seed))
     if key not in _MEMORY:
         arrays = _load_cached(cache_folder() / key)
         if arrays is None:
-            arrays = _paint(path, where, frame, rules, int(seed))
+            arrays = paint_window(path, where, frame, rules, int(seed))
             _store_cached(cache_folder() / key, *arrays)
         _MEMORY.clear()  # scenes are large: keep one
         _MEMORY[key] = _scene(name, path, frame, *arrays)

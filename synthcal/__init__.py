@@ -39,7 +39,9 @@ _EXPORTS: dict[str, str] = {
     "bench": "synthcal.api:bench",
 }
 
-__all__ = ["__version__", *_EXPORTS]
+# Written out (not derived from _EXPORTS) so that linters and IDEs read it; tests/test_api.py holds the two equal.
+__all__ = ["__version__", "load_config", "generate_store", "open_store", "load_split", "SplitDataset", "Estimator",
+           "evaluate", "evaluate_images", "bench"]
 
 if TYPE_CHECKING:
     from synthcal.api import bench, evaluate, evaluate_images, generate_store, load_config, load_split, open_store

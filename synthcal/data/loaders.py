@@ -98,6 +98,16 @@ class SplitDataset(Dataset):
             ``()``, None, ``()``).
         pool: whether this is a pool dictionary (:mod:`synthcal.data.pool`: its
             arrays are lazy :class:`synthcal.data.pool.LazyRows`, read on access).
+
+    Example:
+        >>> import tempfile, synthcal
+        >>> from torch.utils.data import DataLoader
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> train = synthcal.load_split(synthcal.generate_store("intersection-1", tmp.name, profile="smoke"), "train")
+        >>> images, semantics, H = next(iter(DataLoader(train, batch_size=8)))
+        >>> tuple(images.shape), tuple(semantics.shape), tuple(H.shape)
+        ((8, 3, 36, 64), (8, 36, 64), (8, 3, 3))
+        >>> tmp.cleanup()
     """
 
     def __init__(

@@ -101,7 +101,22 @@ class SceneLike(Protocol):
 
 @runtime_checkable
 class Estimator(Protocol):
-    """A homography estimator (SPEC §9); see the module docstring for argument types."""
+    """A homography estimator (SPEC §9); see the module docstring for argument types.
+
+    Any class with these two methods is one (``synthcal.Estimator`` is this
+    protocol; no subclassing needed). ``predict`` returns homographies mapping a
+    bird's-eye pixel to an image pixel.
+
+    Example:
+        >>> import numpy as np, synthcal
+        >>> class FirstTrainPose:   # every image gets the first train sample's homography
+        ...     def fit(self, train, dictionary, scene):
+        ...         self.H = np.asarray(train.homographies[0], np.float64)
+        ...     def predict(self, images):
+        ...         return np.repeat(self.H[None], len(images), axis=0)   # (B, 3, 3)
+        >>> isinstance(FirstTrainPose(), synthcal.Estimator)
+        True
+    """
 
     def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
         """Learn from the train split, the template dictionary and the scene."""

@@ -1,0 +1,287 @@
+"""The Python front door: thin typed functions over synthcal's packages (issue 21).
+
+``import synthcal`` exposes these (and :class:`~synthcal.estimators.protocol.Estimator`,
+:class:`~synthcal.data.loaders.SplitDataset`) lazily: nothing heavy is imported
+until a name is used. Each function only wraps an existing one, giving it the
+shape a script wants; the command line (:mod:`synthcal.cli`) is the other door.
+
+Convention: every homography maps a **bird's-eye pixel to an image pixel**,
+``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2). Images are
+``(H, W, 3)`` uint8 RGB, semantic maps ``(H, W)`` uint8 class ids 0–3.
+
+The examples generate a ``smoke`` store (48 samples at 64 × 36, under a second).
+Like :mod:`synthcal.cli`, this module may import any package of synthcal; it does
+so inside the functions, so that importing it stays cheap.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import pandas as pd
+    import zarr
+
+    from synthcal.config import LoadedConfig
+    from synthcal.data.loaders import SplitDataset
+
+__all__ = ["load_config", "generate_store", "open_store", "load_split", "evaluate", "evaluate_images", "bench"]
+
+
+def load_config(path: str | Path | None = None) -> LoadedConfig:
+    """Read and validate a ``datasets.yaml`` (:func:`synthcal.config.load_config`).
+
+    Args:
+        path: the file; None: ``./datasets.yaml`` when present, else the packaged one.
+
+    Returns:
+        the configuration: ``.dataset_names``, ``.resolve(dataset, profile)`` → the
+        dataset's full specification, ``.config`` (the validated file).
+
+    Raises:
+        ConfigError: unreadable file, unknown key, bad value; names file, key and value.
+
+    Example:
+        >>> import synthcal
+        >>> config = synthcal.load_config()
+        >>> "intersection-1" in config.dataset_names
+        True
+        >>> config.resolve("intersection-1", "smoke").image_size   # (width, height)
+        (64, 36)
+    """
+    from synthcal.config import load_config as load
+
+    return load(path)
+
+
+def generate_store(dataset: str, out: str | Path, profile: str | None = None, *, config: str | Path | None = None,
+             n: int | None = None, splits: bool = True, workers: int = 1, progress: bool = False) -> Path:
+    """Generate (or resume, or find finished) a dataset's store ``OUT/DATASET.zarr``, then draw its splits.
+
+    ``synthcal generate DATASET --out OUT [--profile P] [--splits]`` as a function.
+
+    Args:
+        dataset: a dataset of the configuration (``synthcal datasets`` lists them).
+        out: the folder receiving ``DATASET.zarr``.
+        profile: sizes from ``datasets.yaml``: ``smoke`` (48 samples at 64 × 36),
+            ``demo``, ``quick``, ``paper``; None: the dataset entry as written.
+        config: the ``datasets.yaml`` (default as in :func:`load_config`).
+        n: the pool size, overriding the configuration's.
+        splits: also draw the train / test / dictionary splits of the
+            configuration's split seeds (0–4 by default), mixed dictionaries where
+            their source stores exist.
+        workers: local worker processes (1: this one).
+        progress: a progress bar on standard error.
+
+    Returns:
+        the path of the complete store.
+
+    Raises:
+        ConfigError: unknown dataset or profile, a bad configuration, or a store at
+            the destination made from another configuration.
+
+    Example:
+        >>> import tempfile, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> store = synthcal.generate_store("intersection-1", tmp.name, profile="smoke")
+        >>> store.name
+        'intersection-1.zarr'
+        >>> synthcal.open_store(store)["image"].shape   # (N, height, width, RGB)
+        (48, 36, 64, 3)
+        >>> tmp.cleanup()
+    """
+    from synthcal.generate.pipeline import generate_dataset
+    from synthcal.generate.splits import draw_splits
+
+    spec = load_config(config).resolve(dataset, profile, n)
+    path = generate_dataset(spec, out, workers=workers, progress=progress)
+    if splits:
+        draw_splits(path, spec.split_seeds, spec.splits, spec.mixed_sources)
+    return path
+
+
+def open_store(store: str | Path) -> zarr.Group:
+    """A complete store, opened read-only as a Zarr v3 group (:func:`synthcal.store.open_store`).
+
+    Arrays (SPEC §5): ``image`` (N, H, W, 3) uint8, ``semantic`` (N, H, W) uint8,
+    ``homography`` (N, 3, 3) float64 bird's-eye pixel → image pixel, the cameras'
+    parameters, ``scene/image`` and ``scene/semantic``; ``attrs`` hold the dataset's
+    configuration. Any Zarr v3 reader opens the same folder.
+
+    Raises:
+        StoreError: no store there, or an unfinished one.
+        CorruptStore: a shard file missing or of the wrong size (names it).
+
+    Example:
+        >>> import tempfile, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> group = synthcal.open_store(synthcal.generate_store("intersection-1", tmp.name, profile="smoke"))
+        >>> group["homography"].shape, group.attrs["image_size"]
+        ((48, 3, 3), [64, 36])
+        >>> tmp.cleanup()
+    """
+    from synthcal.store import open_store as open_group
+
+    return open_group(store)
+
+
+def load_split(store: str | Path, split: str = "test", seed: int = 0, mixed: bool | None = None) -> SplitDataset:
+    """One split of a store, held in memory as NumPy arrays and usable as a torch ``Dataset``.
+
+    :func:`synthcal.data.load_split` with defaults: the test split of seed 0.
+
+    Args:
+        store: the store ``NAME.zarr``.
+        split: ``train``, ``test`` or ``dictionary``.
+        seed: the split seed (drawn by :func:`generate_store`, or ``synthcal split``).
+        mixed: for ``dictionary``: True the mixed dictionary (templates from other
+            scenes), False the store's own; None: the own one where there is one.
+
+    Returns:
+        a :class:`~synthcal.data.loaders.SplitDataset`: arrays ``.images`` (K, H, W, 3)
+        uint8, ``.semantics`` (K, H, W) uint8, ``.homographies`` (K, 3, 3) float64
+        (bird's-eye pixel → image pixel), ``.indices`` (K,) pool indices, ``.scene``;
+        item ``k`` is ``(image (3, H, W) float32 in [0, 1], semantic (H, W) int64,
+        homography (3, 3) float64)`` tensors.
+
+    Raises:
+        SplitError: unknown split or seed (names store, key and value).
+
+    Example:
+        >>> import tempfile, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> store = synthcal.generate_store("intersection-1", tmp.name, profile="smoke")
+        >>> train = synthcal.load_split(store, "train", seed=0)
+        >>> train.images.shape, train.homographies.shape     # the smoke profile: 24 train samples
+        ((24, 36, 64, 3), (24, 3, 3))
+        >>> image, semantic, H = train[0]                     # torch tensors
+        >>> tuple(image.shape), tuple(semantic.shape), tuple(H.shape)
+        ((3, 36, 64), (36, 64), (3, 3))
+        >>> tmp.cleanup()
+    """
+    from synthcal.data import load_split as load
+
+    return load(store, split, seed, mixed)
+
+
+def evaluate_images(split: SplitDataset, estimates: Any) -> pd.DataFrame:
+    """Score estimates of a split's images, one row per image (SPEC §8).
+
+    :func:`synthcal.eval.metrics.evaluate` on the split's scene, true homographies
+    and image size, with the scene's field polygon as the store records it.
+
+    Args:
+        split: the split the estimates are for (usually ``load_split(store, "test")``).
+        estimates: (K, 3, 3) bird's-eye pixel → image pixel homographies, any scale
+            and sign (NumPy or torch); a NaN or singular one counts as a failure.
+
+    Returns:
+        DataFrame with one row per image: ``iou``, ``iou_bg``, ``iou_weighted``,
+        ``iou_part``, ``iou_whole`` (in [0, 1]), ``failed``, ``failure``,
+        ``skipped`` (the true view sees no field: metrics NaN).
+
+    Example:
+        >>> import tempfile, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> test = synthcal.load_split(synthcal.generate_store("intersection-1", tmp.name, profile="smoke"), "test")
+        >>> frame = synthcal.evaluate_images(test, test.homographies)   # the truth scores 1
+        >>> len(frame), bool((frame.loc[~frame["skipped"], "iou_part"] == 1.0).all())
+        (8, True)
+        >>> tmp.cleanup()
+    """
+    import numpy as np
+
+    from synthcal.eval.metrics import evaluate as score
+    from synthcal.store import attributes
+    from synthcal.store import open_store as open_group
+
+    field = attributes(open_group(split.store))["scene"].get("field")  # None: the whole scene
+    image_size = (split.images.shape[2], split.images.shape[1])
+    return score(split.scene.semantic, estimates, split.homographies, image_size,
+                 field=None if field is None else np.asarray(field, np.float64),
+                 indices=np.asarray(split.indices), source=str(split.store))
+
+
+def evaluate(split: SplitDataset, estimates: Any) -> dict[str, float]:
+    """The readings of estimates of a split's images: means over the scored images (SPEC §8).
+
+    :func:`evaluate_images`, then :func:`synthcal.eval.metrics.summarize`.
+
+    Args:
+        split: the split the estimates are for (usually ``load_split(store, "test")``).
+        estimates: (K, 3, 3) bird's-eye pixel → image pixel homographies, any scale and sign.
+
+    Returns:
+        ``iou``, ``iou_bg``, ``iou_weighted`` (three readings of the paper's IoU),
+        ``iou_part``, ``iou_whole`` (failures count 0), ``completeness`` (share of
+        usable estimates), ``n_images`` (scored) and ``n_skipped``.
+
+    Example:
+        >>> import tempfile, numpy as np, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> test = synthcal.load_split(synthcal.generate_store("intersection-1", tmp.name, profile="smoke"), "test")
+        >>> synthcal.evaluate(test, test.homographies)["iou_part"]          # the truth
+        1.0
+        >>> synthcal.evaluate(test, np.full((len(test), 3, 3), np.nan))["completeness"]   # no estimate
+        0.0
+        >>> tmp.cleanup()
+    """
+    from synthcal.eval.metrics import summarize
+
+    return summarize(evaluate_images(split, estimates))
+
+
+def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], results: str | Path,
+          seeds: Sequence[int] = (0,), profile: str | None = None, *, config: str | Path | None = None,
+          device: str = "auto", timeout: float | None = None, progress: bool = False) -> pd.DataFrame:
+    """Fit and score estimators over datasets and seeds, one process per run (resumable).
+
+    ``synthcal bench`` as a function, with its defaults for the axes (step-by-step
+    training, Top-MSE loss and matching, the profile's segmentation, split sizes
+    and dictionary).
+
+    Args:
+        data: the folder holding the stores ``NAME.zarr`` (splits drawn).
+        datasets: dataset labels: ``NAME``, or ``mixed-K`` for a mixed dictionary.
+        estimators: bundled names (``identity``, ``template``, ``ecc``,
+            ``baseline``, ``proposed``), entry points, or ``package.module:Class``
+            paths importable from ``sys.path`` (:class:`~synthcal.estimators.protocol.Estimator`).
+        results: the results folder (``runs/``, ``cache/``); finished runs are kept.
+        seeds: split seeds.
+        profile: training sizes and split caps of ``datasets.yaml`` (``smoke`` …).
+        config: the ``datasets.yaml`` (default as in :func:`load_config`).
+        device: torch device of the bundled models (``auto``: CUDA when available).
+        timeout: seconds each run's process may take; None: no limit.
+        progress: progress bars.
+
+    Returns:
+        one row per finished run of this call: ``dataset``, ``model``, ``seed``, the
+        readings (``iou`` …), ``completeness``, ``status`` (``ok``/``failed``),
+        ``error``, ``run_id``, …
+
+    Raises:
+        SplitError: a missing store or undrawn seed. EstimatorError: an unknown estimator.
+
+    Example:
+        >>> import tempfile, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> _ = synthcal.generate_store("intersection-1", f"{tmp.name}/data", profile="smoke")
+        >>> frame = synthcal.bench(f"{tmp.name}/data", ["intersection-1"], ["identity"], f"{tmp.name}/results",
+        ...                        profile="smoke")
+        >>> list(frame["status"]), list(frame["model"])
+        (['ok'], ['identity'])
+        >>> tmp.cleanup()
+    """
+    from synthcal.eval.harness import expand_runs, run_sweep
+
+    loaded = load_config(config)
+    entry = loaded.config.profiles.get(profile) if profile is not None else None
+    limits = None if entry is None or entry.splits is None else entry.splits.model_dump()
+    training = loaded.training(profile)
+    runs = expand_runs(data, datasets, estimators, seeds, profile, training.settings(),
+                       segmentations=(training.segmentation,), device=device, limits=limits,
+                       dictionary={label: loaded.dictionary(label, profile) for label in datasets})
+    frame = run_sweep(runs, results, progress=progress, timeout=timeout)
+    return frame[frame["run_id"].isin({run.id for run in runs})].reset_index(drop=True)

@@ -9,7 +9,7 @@ The Python API (README, "Python API")::
     synthcal.evaluate(test, estimates)["iou_weighted"]
 
 Every name of ``__all__`` is imported on first use (PEP 562), so ``import synthcal``
-loads neither torch, OpenCV, pandas nor zarr. ``_EXPORTS`` says where each lives.
+loads neither torch, OpenCV, pandas nor zarr. ``EXPORTS`` says where each lives.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ except PackageNotFoundError:  # imported from a source tree that was never insta
 # Public name → "module:attribute", imported when first asked for. The one place that
 # says where the public names live: the TYPE_CHECKING block below mirrors it for mypy,
 # tests/test_api.py checks that the two agree and that every name resolves.
-_EXPORTS: dict[str, str] = {
+EXPORTS: dict[str, str] = {
     "load_config": "synthcal.api:load_config",
     "generate_store": "synthcal.api:generate_store",
     "open_store": "synthcal.api:open_store",
@@ -39,7 +39,7 @@ _EXPORTS: dict[str, str] = {
     "bench": "synthcal.api:bench",
 }
 
-# Written out (not derived from _EXPORTS) so that linters and IDEs read it; tests/test_api.py holds the two equal.
+# Written out (not derived from EXPORTS) so that linters and IDEs read it; tests/test_api.py holds the two equal.
 __all__ = ["__version__", "load_config", "generate_store", "open_store", "load_split", "SplitDataset", "Estimator",
            "evaluate", "evaluate_images", "bench"]
 
@@ -51,7 +51,7 @@ if TYPE_CHECKING:
 
 def __getattr__(name: str) -> Any:
     """Import a public name on first use and keep it in the module (PEP 562)."""
-    target = _EXPORTS.get(name)
+    target = EXPORTS.get(name)
     if target is None:
         raise AttributeError(f"module 'synthcal' has no attribute {name!r}")
     module, _, attribute = target.partition(":")
@@ -61,4 +61,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
+    return sorted(set(globals()) | set(EXPORTS))

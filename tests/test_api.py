@@ -35,7 +35,7 @@ def test_asking_for_a_name_imports_what_it_needs_then():
 
 
 def test_every_public_name_resolves_with_a_runnable_example():
-    exports = synthcal._EXPORTS
+    exports = synthcal.EXPORTS
     assert set(synthcal.__all__) == {"__version__", *exports}
     for name, target in exports.items():
         module, _, attribute = target.partition(":")
@@ -49,16 +49,16 @@ def test_no_public_name_is_shadowed_by_a_subpackage():
     # `synthcal.generate` would be the subpackage once anything imported it, never the function.
     submodules = {path.stem if path.suffix == ".py" else path.name for path in (ROOT / "synthcal").iterdir()
                   if path.suffix == ".py" or (path / "__init__.py").is_file()}
-    assert not set(synthcal._EXPORTS) & submodules
+    assert not set(synthcal.EXPORTS) & submodules
 
 
 def test_type_checking_imports_mirror_the_exports():
-    # mypy sees the names through the TYPE_CHECKING block: it must say what _EXPORTS says.
+    # mypy sees the names through the TYPE_CHECKING block: it must say what EXPORTS says.
     tree = ast.parse((ROOT / "synthcal" / "__init__.py").read_text())
     block = next(node for node in tree.body if isinstance(node, ast.If) and ast.unparse(node.test) == "TYPE_CHECKING")
     imported = {alias.asname or alias.name: f"{node.module}:{alias.name}"
                 for node in block.body if isinstance(node, ast.ImportFrom) for alias in node.names}
-    assert imported == synthcal._EXPORTS
+    assert imported == synthcal.EXPORTS
 
 
 def test_unknown_name_is_an_attribute_error():

@@ -18,94 +18,11 @@ modules, each re-exported here:
 * :mod:`.load`: :func:`load_config` and :class:`LoadedConfig`.
 """
 
-from synthcal.config.load import LoadedConfig, default_config_path, load_config
-from synthcal.config.schema import (
-    AppearanceConfig,
-    AxisRange,
-    Config,
-    DatasetConfig,
-    Defaults,
-    GridConfig,
-    OsmSourceConfig,
-    ProfileConfig,
-    SplitSizes,
-    TrainingProfile,
-    TrainingSettings,
-    UserSceneConfig,
-)
-from synthcal.config.spec import DatasetSpec
-from synthcal.config.vocabulary import (
-    BUILTIN_SCENE_NAMES,
-    CLASS_REDUCTIONS,
-    DEFAULT_READING,
-    DESCRIPTIONS,
-    DICTIONARIES,
-    GRID_AXES,
-    LOSSES,
-    MATCHINGS,
-    METRICS,
-    MODEL_LABELS,
-    MODELS,
-    POSE_SET_SPLITS,
-    READINGS,
-    SEGMENTATIONS,
-    STN_TEMPLATES,
-    TRAININGS,
-    ClassReduction,
-    ConfigError,
-    Dictionary,
-    Images,
-    Loss,
-    Matching,
-    Model,
-    Segmentation,
-    StnTemplate,
-    Training,
-    check_dataset_name,
-)
+# Each module lists its public names once (its __all__); the package offers them all.
+from synthcal.config import load, schema, spec, vocabulary
+from synthcal.config.load import *  # noqa: F403
+from synthcal.config.schema import *  # noqa: F403
+from synthcal.config.spec import *  # noqa: F403
+from synthcal.config.vocabulary import *  # noqa: F403
 
-__all__ = [
-    "Model",
-    "Training",
-    "Loss",
-    "Matching",
-    "Segmentation",
-    "StnTemplate",
-    "ClassReduction",
-    "Dictionary",
-    "Images",
-    "MODELS",
-    "MODEL_LABELS",
-    "TRAININGS",
-    "LOSSES",
-    "MATCHINGS",
-    "SEGMENTATIONS",
-    "STN_TEMPLATES",
-    "CLASS_REDUCTIONS",
-    "DICTIONARIES",
-    "READINGS",
-    "METRICS",
-    "DESCRIPTIONS",
-    "DEFAULT_READING",
-    "ConfigError",
-    "check_dataset_name",
-    "GRID_AXES",
-    "BUILTIN_SCENE_NAMES",
-    "POSE_SET_SPLITS",
-    "AxisRange",
-    "GridConfig",
-    "AppearanceConfig",
-    "SplitSizes",
-    "OsmSourceConfig",
-    "UserSceneConfig",
-    "DatasetConfig",
-    "Defaults",
-    "TrainingSettings",
-    "TrainingProfile",
-    "ProfileConfig",
-    "Config",
-    "DatasetSpec",
-    "LoadedConfig",
-    "default_config_path",
-    "load_config",
-]
+__all__ = [*vocabulary.__all__, *schema.__all__, *spec.__all__, *load.__all__]

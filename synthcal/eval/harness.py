@@ -3,7 +3,7 @@
 A *run* is (dataset, estimator, training, loss, matching, segmentation, seed,
 profile, the profile's training settings and split sizes, device): fit on the
 seed's train split and dictionary, predict the test images, score every test
-image (:func:`synthcal.eval.metrics.evaluate`).
+image (:func:`synthcal.eval.evaluate.evaluate`).
 
 The harness is three modules, each importing only the ones before it:
 
@@ -80,9 +80,10 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from synthcal.config import METRICS
 from synthcal.data import read_scene
+from synthcal.eval.evaluate import evaluate, summarize
 from synthcal.eval.isolation import DEFAULT_TIMEOUT, _estimate_isolated, _load_split, _write_atomic
-from synthcal.eval.metrics import METRICS, evaluate, summarize
 from synthcal.eval.runs import (
     AXES,
     Run,

@@ -193,7 +193,7 @@ def evaluate_images(split: SplitDataset, estimates: Any) -> pd.DataFrame:
     """
     import numpy as np
 
-    from synthcal.eval.metrics import evaluate as score
+    from synthcal.eval.scoring import evaluate as score
     from synthcal.store import attributes
     from synthcal.store import open_store as open_group
 
@@ -228,7 +228,7 @@ def evaluate(split: SplitDataset, estimates: Any) -> dict[str, float]:
         0.0
         >>> tmp.cleanup()
     """
-    from synthcal.eval.metrics import summarize
+    from synthcal.eval.scoring import summarize
 
     return summarize(evaluate_images(split, estimates))
 

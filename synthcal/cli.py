@@ -471,7 +471,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def _check_metric(name: str) -> None:
     """``--metric`` of ``table`` and ``plot``: one of :data:`synthcal.eval.metrics.METRICS`."""
-    from synthcal.eval.metrics import METRICS
+    from synthcal.config import METRICS
 
     if name not in METRICS:
         raise _UserError(f"--metric: unknown metric {name!r}; one of {', '.join(METRICS)}")

@@ -1,23 +1,17 @@
-"""Evaluation: metrics (SPEC §8), the harness that runs estimators over datasets and
-seeds (:mod:`.runs`: which runs a sweep has; :mod:`.isolation`: one estimator in a
-process of its own; :mod:`.harness`: executing runs and sweeps, reading the results),
-the paper's result tables and plots.
+"""Evaluation: the metrics (SPEC §8: :mod:`.metrics`, the checks and the paper's IoU;
+:mod:`.polygon`, the exact sports-field IoUs; :mod:`.evaluate`, a batch of images),
+the harness that runs estimators over datasets and seeds (:mod:`.runs`: which runs a
+sweep has; :mod:`.isolation`: one estimator in a process of its own; :mod:`.harness`:
+executing runs and sweeps, reading the results), the paper's result tables and plots.
 
 Convention: every homography maps a bird's-eye pixel to an image pixel,
 ``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).
 """
 
-from synthcal.eval.metrics import (
-    METRICS,
-    check_homography,
-    completeness,
-    evaluate,
-    iou,
-    iou_part,
-    iou_whole,
-    readings,
-    summarize,
-)
+from synthcal.config import METRICS
+from synthcal.eval.metrics import check_homography, iou, readings
+from synthcal.eval.polygon import iou_part, iou_whole
+from synthcal.eval.scoring import completeness, evaluate, summarize
 from synthcal.eval.tables import LAYOUTS, aggregate, format_table, paper_results, table_frame
 
 __all__ = [

@@ -3,7 +3,7 @@
 A *run* is (dataset, estimator, training, loss, matching, segmentation, seed,
 profile, the profile's training settings and split sizes, device): fit on the
 seed's train split and dictionary, predict the test images, score every test
-image (:func:`synthcal.eval.metrics.evaluate`).
+image (:func:`synthcal.eval.scoring.evaluate`).
 
 The harness is three modules, each importing only the ones before it:
 
@@ -80,9 +80,9 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from synthcal.config import METRICS
 from synthcal.data import read_scene
 from synthcal.eval.isolation import DEFAULT_TIMEOUT, estimate_isolated, load_run_split, write_text_atomic
-from synthcal.eval.metrics import METRICS, evaluate, summarize
 from synthcal.eval.runs import (
     AXES,
     Run,
@@ -97,6 +97,7 @@ from synthcal.eval.runs import (
     table_label,
     training_budget,
 )
+from synthcal.eval.scoring import evaluate, summarize
 from synthcal.store import StoreError, attributes, open_store
 from synthcal.utils.dispatch import dispatch
 

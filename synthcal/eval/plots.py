@@ -1,6 +1,6 @@
 """Figures of a results folder: IoU per dataset and estimator, and overlays.
 
-Both show one metric (``value``: a column of :data:`synthcal.eval.metrics.METRICS`,
+Both show one metric (``value``: a column of :data:`synthcal.config.METRICS`,
 e.g. ``iou_weighted``), named in the axis label and titles.
 
 * :func:`plot_iou` — one group of bars per dataset, one bar per configuration

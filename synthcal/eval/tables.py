@@ -17,7 +17,7 @@ column             needed  meaning
 ``matching_score`` no      ``mse`` or ``top-mse``
 ``seed``           yes     the split seed (the five cycles: 0–4)
 ``iou`` …          yes     the mean over the run's test images of a metric of
-                           :func:`synthcal.eval.metrics.evaluate`, a fraction in
+                           :func:`synthcal.eval.scoring.evaluate`, a fraction in
                            [0, 1] (failures counted as 0); pick it with ``value``
 ``completeness``   no      share of the run's test images with a valid estimate
                            (a fraction; shown "–" where missing)
@@ -99,7 +99,7 @@ from importlib import resources
 import numpy as np
 import pandas as pd
 
-from synthcal.eval.metrics import DESCRIPTIONS, READINGS
+from synthcal.config import DESCRIPTIONS, READINGS
 
 __all__ = ["KEYS", "MISSING", "Layout", "LAYOUTS", "paper_results", "aggregate", "table_frame", "format_table",
            "failed_runs", "PAIR_KEYS", "paired_frame", "format_paired"]

@@ -31,7 +31,9 @@ from synthcal.estimators import (
     one_hot,
     registry,
 )
-from synthcal.eval.metrics import evaluate, iou, iou_whole
+from synthcal.eval.metrics import iou
+from synthcal.eval.polygon import iou_whole
+from synthcal.eval.scoring import evaluate
 from synthcal.generate.camera import homography
 from synthcal.generate.render import render_image, render_semantic
 

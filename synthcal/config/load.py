@@ -1,0 +1,269 @@
+"""Reading ``datasets.yaml``: :func:`load_config` and the :class:`LoadedConfig` it returns.
+
+Every error is a :class:`~synthcal.config.vocabulary.ConfigError` whose message
+names the file, the key path and the offending value, and is raised before anything
+is written.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import ValidationError
+
+from synthcal.config.schema import Config, DatasetConfig, ProfileConfig, SplitSizes, TrainingProfile, UserSceneConfig
+from synthcal.config.spec import DatasetSpec
+from synthcal.config.vocabulary import BUILTIN_SCENE_NAMES, POSE_SET_SPLITS, ConfigError, Dictionary, check_dataset_name
+
+__all__ = ["LoadedConfig", "default_config_path", "load_config"]
+
+
+def default_config_path() -> Path:
+    """``./datasets.yaml`` when present, else the copy shipped with the package."""
+    local = Path("datasets.yaml")
+    if local.is_file():
+        return local
+    return Path(str(resources.files("synthcal") / "datasets.yaml"))
+
+
+def _format_errors(path: Path, error: ValidationError, raw: Any) -> str:
+    lines = [f"{path}: invalid configuration"]
+    for item in error.errors():
+        key = ".".join(str(part) for part in item["loc"])
+        value = item.get("input")
+        if item["type"] == "missing":
+            lines.append(f"  {key}: missing required key")
+        elif item["type"] == "extra_forbidden":
+            lines.append(f"  {key}: unknown key (value {value!r})")
+        else:
+            message = item["msg"].removeprefix("Value error, ")
+            lines.append(f"  {key}: {message} (value {value!r})")
+    return "\n".join(lines)
+
+
+class LoadedConfig:
+    """A validated configuration file and the datasets it can resolve."""
+
+    def __init__(self, path: Path, config: Config) -> None:
+        self.path = path
+        self.config = config
+
+    @property
+    def dataset_names(self) -> list[str]:
+        return list(self.config.datasets)
+
+    def profile(self, profile: str | None) -> ProfileConfig:
+        """A profile's overrides (None: no profile, an empty :class:`ProfileConfig`).
+
+        Raises:
+            ConfigError: unknown profile, naming the file and the known ones.
+        """
+        if profile is None:
+            return ProfileConfig()
+        if profile not in self.config.profiles:
+            raise ConfigError(f"{self.path}: profiles.{profile}: unknown profile {profile!r}; "
+                              f"known: {', '.join(self.config.profiles)}")
+        return self.config.profiles[profile]
+
+    def resolve(self, dataset: str, profile: str | None = None, pool_size: int | None = None) -> DatasetSpec:
+        """The resolved spec of one dataset under a profile.
+
+        Args:
+            dataset: a key of ``datasets``.
+            profile: a key of ``profiles`` (None: the file's defaults alone).
+            pool_size: overrides the pool size (≥ 1; not for a dataset of given poses).
+
+        Raises:
+            ConfigError: unknown dataset or profile, a bad ``pool_size``, or a pool
+                larger than its grid.
+        """
+        cfg = self.config
+        if dataset not in cfg.datasets:
+            raise ConfigError(
+                f"{self.path}: datasets.{dataset}: unknown dataset {dataset!r}; known: {', '.join(cfg.datasets)}"
+            )
+        prof = self.profile(profile)
+        entry = cfg.datasets[dataset]
+        d = cfg.defaults
+        splits = prof.splits or entry.splits or d.splits
+        if entry.poses is not None:
+            pool, splits = self._pose_pool(dataset, entry.poses, entry.splits, splits, pool_size)
+        else:
+            pool = self._grid_pool(dataset, entry, prof, pool_size)
+        spec = DatasetSpec(
+            name=dataset,
+            scene=entry.scene,
+            user_scene=cfg.scenes.get(entry.scene),
+            grid=None if entry.grid is None else cfg.grids[entry.grid],
+            poses=entry.poses,
+            pool_size=pool,
+            seed=d.seed if entry.seed is None else entry.seed,
+            seed_from_name=entry.seed is None,
+            min_field_fraction=entry.min_field_fraction or 0.0,
+            image_size=prof.image_size or entry.image_size or d.image_size,
+            focal_reference_width=d.focal_reference_width,
+            shard_size=prof.shard_size or d.shard_size,
+            supersample=prof.supersample or d.supersample,
+            appearance=d.appearance,
+            splits=splits,
+            split_seeds=d.split_seeds,
+            mixed_sources=entry.dictionary_from or cfg.mixed_dictionaries.get(dataset, ()),
+            own_dictionary=entry.dictionary_from is None,
+            images=prof.images or entry.images or "all",
+        )
+        if spec.grid is None:
+            return spec
+        size = spec.grid.size()
+        if spec.pool_size > size:
+            raise ConfigError(
+                f"{self.path}: datasets.{dataset}.pool_size: {spec.pool_size} samples asked for, "
+                f"but grid {entry.grid!r} holds only {size} cameras (value {spec.pool_size})"
+            )
+        return spec
+
+    def training(self, profile: str | None = None) -> TrainingProfile:
+        """The ``training:`` block of a profile (the built-in defaults without one).
+
+        Raises:
+            ConfigError: unknown profile.
+        """
+        return self.profile(profile).training or TrainingProfile()
+
+    def dictionary(self, dataset: str, profile: str | None = None) -> Dictionary:
+        """The dictionary ``bench`` searches for a dataset: the profile's ``dictionary:``, else the
+        dataset's, else ``split``. A dataset whose dictionary comes from others (``dictionary_from``)
+        or that is not in the file (a ``mixed-K`` label) always gets ``split`` here: its own
+        (mixed) dictionary.
+
+        Raises:
+            ConfigError: unknown profile.
+        """
+        prof = self.profile(profile)
+        entry = self.config.datasets.get(dataset)
+        if entry is None or entry.dictionary_from:
+            return "split"
+        return prof.dictionary or entry.dictionary or "split"
+
+    def _grid_pool(self, dataset: str, entry: DatasetConfig, prof: ProfileConfig, pool_size: int | None) -> int:
+        """Pool size of a grid dataset: ``pool_size`` if given, else the entry's capped by the profile."""
+        if pool_size is not None:
+            if pool_size < 1:
+                raise ConfigError(f"pool_size: the pool size must be ≥ 1 (value {pool_size})")
+            return pool_size
+        if entry.pool_size is None:  # DatasetConfig requires it with grid:, so only a hand-built entry gets here
+            raise ConfigError(f"{self.path}: datasets.{dataset}.pool_size: missing required key")
+        return entry.pool_size if prof.max_pool_size is None else min(entry.pool_size, prof.max_pool_size)
+
+    def _pose_pool(
+        self, dataset: str, poses: str, entry_splits: SplitSizes | None, splits: SplitSizes, pool_size: int | None
+    ) -> tuple[int, SplitSizes]:
+        """Pool size and split sizes of a dataset of given poses.
+
+        The pool is every pose (profiles do not cap it) and train/test are the
+        poses' own partition (:data:`POSE_SET_SPLITS`); only the dictionary size
+        comes from the profile, the entry (``entry_splits``) or the defaults.
+        """
+        key = f"{self.path}: datasets.{dataset}"
+        if pool_size is not None:
+            raise ConfigError(f"{key}: pool_size: the poses {poses!r} fix the pool size (value {pool_size})")
+        fixed = dict(POSE_SET_SPLITS[poses])
+        if entry_splits is not None:
+            for name in sorted(entry_splits.model_fields_set & set(fixed)):
+                value = getattr(entry_splits, name)
+                if value != fixed[name]:
+                    raise ConfigError(
+                        f"{key}.splits.{name}: the poses {poses!r} fix {name} at {fixed[name]} (value {value})"
+                    )
+        return sum(fixed.values()), splits.model_copy(update=fixed)
+
+
+def _check_references(path: Path, config: Config) -> None:
+    """Every name a dataset or ``mixed_dictionaries`` refers to exists (in file order)."""
+    for name, entry in config.datasets.items():
+        _check_dataset_references(path, config, name, entry)
+    _check_mixed_dictionaries(path, config)
+
+
+def _check_dataset_references(path: Path, config: Config, name: str, entry: DatasetConfig) -> None:
+    """One dataset's name is plain and its ``dictionary_from``, ``scene`` and ``grid`` name things that exist."""
+    check_dataset_name(name, f"{path}: ")
+    for source in entry.dictionary_from or ():
+        if source not in config.datasets or source == name:
+            raise ConfigError(
+                f"{path}: datasets.{name}.dictionary_from: {source!r} must be another dataset; "
+                f"known: {', '.join(config.datasets)}"
+            )
+    if entry.dictionary_from and name in config.mixed_dictionaries:
+        raise ConfigError(
+            f"{path}: mixed_dictionaries.{name}: the dataset already takes its dictionary from "
+            f"datasets.{name}.dictionary_from (value {list(config.mixed_dictionaries[name])})"
+        )
+    if entry.poses == "worldcup2014" and entry.scene != "soccer":
+        raise ConfigError(
+            f"{path}: datasets.{name}.scene: the poses 'worldcup2014' are World Cup broadcast cameras "
+            f"over the 'soccer' scene (value {entry.scene!r})"
+        )
+    if entry.grid is not None and entry.grid not in config.grids:
+        raise ConfigError(
+            f"{path}: datasets.{name}.grid: unknown grid {entry.grid!r}; known: {', '.join(config.grids)}"
+        )
+    if entry.scene not in config.scenes and entry.scene not in BUILTIN_SCENE_NAMES:
+        known = ", ".join([*BUILTIN_SCENE_NAMES, *config.scenes])
+        raise ConfigError(f"{path}: datasets.{name}.scene: unknown scene {entry.scene!r}; known: {known}")
+
+
+def _check_mixed_dictionaries(path: Path, config: Config) -> None:
+    """Each ``mixed_dictionaries`` target and its sources are distinct, other datasets."""
+    for target, sources in config.mixed_dictionaries.items():
+        if target not in config.datasets:
+            raise ConfigError(
+                f"{path}: mixed_dictionaries.{target}: unknown dataset {target!r}; known: {', '.join(config.datasets)}"
+            )
+        if not sources or len(set(sources)) != len(sources):
+            raise ConfigError(f"{path}: mixed_dictionaries.{target}: list distinct source datasets (value {list(sources)})")
+        for source in sources:
+            if source not in config.datasets or source == target:
+                raise ConfigError(
+                    f"{path}: mixed_dictionaries.{target}: {source!r} must be another dataset "
+                    f"(value {list(sources)}); known: {', '.join(config.datasets)}"
+                )
+
+
+def _resolve_scene_paths(path: Path, scene: UserSceneConfig) -> UserSceneConfig:
+    """A scene entry with its files made relative to the YAML file's folder."""
+    if scene.osm is not None:
+        return scene.model_copy(update={"osm": scene.osm.model_copy(update={"file": path.parent / scene.osm.file})})
+    assert scene.image is not None and scene.semantic is not None  # _one_source
+    return scene.model_copy(update={"image": path.parent / scene.image, "semantic": path.parent / scene.semantic})
+
+
+def load_config(path: str | Path | None = None) -> LoadedConfig:
+    """Read and validate a ``datasets.yaml``.
+
+    Args:
+        path: the file (default: :func:`default_config_path`).
+
+    Raises:
+        ConfigError: unreadable file, YAML syntax, unknown key, bad value or
+            dangling reference; the message names the file, key path and value.
+    """
+    path = Path(path) if path is not None else default_config_path()
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read the configuration ({exc.strerror})") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path}: the top level must be a mapping, got {type(raw).__name__}")
+    try:
+        config = Config.model_validate(raw)
+    except ValidationError as exc:
+        raise ConfigError(_format_errors(path, exc, raw)) from None
+    resolved_scenes = {name: _resolve_scene_paths(path, scene) for name, scene in config.scenes.items()}
+    config = config.model_copy(update={"scenes": resolved_scenes})
+    _check_references(path, config)
+    return LoadedConfig(path, config)

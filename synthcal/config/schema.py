@@ -1,0 +1,428 @@
+"""The schema of ``datasets.yaml``: one strict pydantic model per block of the file.
+
+Models forbid unknown keys and are frozen; their validators turn a bad value into a
+message naming the value (:func:`synthcal.config.load.load_config` adds the file and
+key path).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
+
+from synthcal.config.vocabulary import GRID_AXES, ClassReduction, Dictionary, Images, Segmentation, StnTemplate
+
+__all__ = [
+    "AxisRange",
+    "GridConfig",
+    "AppearanceConfig",
+    "SplitSizes",
+    "OsmSourceConfig",
+    "UserSceneConfig",
+    "DatasetConfig",
+    "Defaults",
+    "TrainingSettings",
+    "TrainingProfile",
+    "ProfileConfig",
+    "Config",
+]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class AxisRange(_Strict):
+    """An inclusive range ``start..stop`` in steps of ``step`` (SPEC §3)."""
+
+    start: float
+    stop: float
+    step: float = 1.0
+
+    @field_validator("step")
+    @classmethod
+    def _positive_step(cls, step: float) -> float:
+        if step <= 0:
+            raise ValueError(f"step must be > 0, got {step}")
+        return step
+
+    @model_validator(mode="after")
+    def _non_empty(self) -> AxisRange:
+        if self.stop < self.start:
+            raise ValueError(f"empty range: stop {self.stop} < start {self.start}")
+        return self
+
+    def values(self, name: str = "") -> np.ndarray:
+        """The values of the range.
+
+        Args:
+            name: the axis name; a ``pan_deg`` range spanning 360° drops its upper end
+                (≡ its lower end).
+
+        Returns:
+            (K,) float64 values.
+        """
+        count = int(np.floor((self.stop - self.start) / self.step + 1e-9)) + 1
+        values = self.start + self.step * np.arange(count, dtype=np.float64)
+        if name == "pan_deg" and count > 1 and np.isclose(values[-1] - values[0], 360.0):
+            values = values[:-1]
+        return values
+
+
+class GridConfig(_Strict):
+    """Camera grid; X/Y/Z left out means the scene's own camera position.
+
+    With ``xy_relative`` the X and Y ranges are offsets from the scene's camera
+    *anchor* (its ``camera_position``, or the scene centre ``(W/2, H/2)``), so one
+    grid fits scenes of any size; Z is always the height above the ground.
+    :meth:`anchored` turns such a grid into the absolute one it stands for, which
+    is what a store records (a relative grid and its absolute spelling give the
+    same store). ``xy_relative`` is left out of dumps when false, so absolute grids
+    keep their configuration hash.
+    """
+
+    pan_deg: AxisRange
+    tilt_deg: AxisRange
+    focal_px: AxisRange
+    x: AxisRange | None = None
+    y: AxisRange | None = None
+    z: AxisRange | None = None
+    jitter: bool = False
+    xy_relative: bool = False
+
+    @model_validator(mode="after")
+    def _position_all_or_none(self) -> GridConfig:
+        given = [axis for axis in ("x", "y", "z") if getattr(self, axis) is not None]
+        if given and len(given) != 3:
+            raise ValueError(f"x, y and z must be given together or not at all, got only {given}")
+        if self.xy_relative and not given:
+            raise ValueError("xy_relative: true needs x, y and z ranges (offsets from the scene's anchor)")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data: dict[str, Any] = handler(self)
+        if not self.xy_relative:
+            data.pop("xy_relative", None)
+        return data
+
+    def anchored(self, anchor: tuple[float, float]) -> GridConfig:
+        """The absolute grid: X/Y offsets moved to ``anchor`` (``self`` when already absolute).
+
+        Args:
+            anchor: the scene's camera anchor ``(X, Y)`` in bird's-eye pixels.
+        """
+        if not self.xy_relative or self.x is None or self.y is None:
+            return self
+        x = self.x.model_copy(update={"start": self.x.start + anchor[0], "stop": self.x.stop + anchor[0]})
+        y = self.y.model_copy(update={"start": self.y.start + anchor[1], "stop": self.y.stop + anchor[1]})
+        return self.model_copy(update={"x": x, "y": y, "xy_relative": False})
+
+    def axis(self, name: str) -> AxisRange | None:
+        """The range of one of :data:`GRID_AXES` (None: X/Y/Z left to the scene)."""
+        if name not in GRID_AXES:
+            raise KeyError(f"grid axis must be one of {', '.join(GRID_AXES)}, got {name!r}")
+        axis: AxisRange | None = getattr(self, name)
+        return axis
+
+    def size(self) -> int:
+        """Number of cameras in the grid (a missing X/Y/Z axis counts as one value)."""
+        size = 1
+        for name in GRID_AXES:
+            axis = self.axis(name)
+            size *= 1 if axis is None else len(axis.values(name))
+        return size
+
+
+class AppearanceConfig(_Strict):
+    """Ranges of the per-sample photometric changes (see render.Appearance)."""
+
+    brightness: float = Field(20.0, ge=0)
+    contrast: float = Field(0.2, ge=0, lt=1)
+    blur_sigma: float = Field(0.8, ge=0)
+    noise_sigma: float = Field(3.0, ge=0)
+
+
+class SplitSizes(_Strict):
+    """Sizes of the per-seed train / test / dictionary splits (SPEC §6)."""
+
+    train: int = Field(3000, ge=1)
+    test: int = Field(500, ge=1)
+    dictionary: int = Field(1000, ge=1)
+
+    @property
+    def total(self) -> int:
+        return self.train + self.test + self.dictionary
+
+
+class OsmSourceConfig(_Strict):
+    """An OpenStreetMap scene's source (``osm:`` of a scene entry; SPEC §4).
+
+    ``file`` (``.osm``, ``.osm.pbf``, ``.osm.bz2``) is relative to the YAML file;
+    ``center`` is ``[lat, lon]`` in WGS84 degrees; ``size_m`` the window
+    ``[width, height]`` in metres; ``classes`` moves tag selectors to classes
+    (``{terrain: ["landuse=farmland"]}``, see docs/osm.md); ``seed`` seeds the RGB.
+    """
+
+    file: Path
+    center: tuple[float, float]
+    size_m: tuple[float, float] = (130.0, 190.0)
+    pixels_per_metre: float = Field(10.0, gt=0, allow_inf_nan=False)
+    classes: dict[str, list[str]] | None = None
+    seed: int = 0
+
+    @field_validator("center")
+    @classmethod
+    def _lat_lon(cls, center: tuple[float, float]) -> Any:
+        if not (-90 <= center[0] <= 90 and -180 <= center[1] <= 180):
+            raise ValueError(f"center must be [lat, lon] in degrees (-90..90, -180..180), got {list(center)}")
+        return center
+
+    @field_validator("size_m")
+    @classmethod
+    def _size(cls, size: tuple[float, float]) -> Any:
+        if not all(0 < s < float("inf") for s in size):
+            raise ValueError(f"size_m must be [width, height] in metres, both > 0, got {list(size)}")
+        return size
+
+
+# Keys of a PNG scene that an osm: scene takes from its source instead.
+_PNG_ONLY_KEYS = ("image", "semantic", "palette", "classes", "pixels_per_metre")
+
+
+class UserSceneConfig(_Strict):
+    """A scene from two PNG files; paths are relative to the YAML file.
+
+    Or, with ``osm:`` instead of ``image``/``semantic``/``palette``/``classes``/
+    ``pixels_per_metre``, a scene built from OpenStreetMap (:class:`OsmSourceConfig`).
+
+    ``classes`` names class ids 0..3; ``heading_deg`` is added to every pan;
+    ``camera_position`` ``(X, Y, Z)`` (bird's-eye pixels, ``Z`` the height) is the
+    camera of a grid without X/Y/Z and the anchor of a relative grid (default
+    anchor: the scene centre); ``pixels_per_metre`` is the ground scale.
+    """
+
+    image: Path | None = None
+    semantic: Path | None = None
+    osm: OsmSourceConfig | None = None
+    palette: dict[int, tuple[int, int, int]] | None = None
+    classes: tuple[str, str, str, str] | None = None
+    heading_deg: float = Field(0.0, allow_inf_nan=False)
+    camera_position: tuple[float, float, float] | None = None
+    pixels_per_metre: float = Field(10.0, gt=0, allow_inf_nan=False)
+
+    @field_validator("classes")
+    @classmethod
+    def _class_names(cls, classes: tuple[str, str, str, str] | None) -> Any:
+        if classes is not None and (any(not name.strip() for name in classes) or len(set(classes)) != 4):
+            raise ValueError(f"classes must be 4 distinct, non-empty names (ids 0..3), got {list(classes)}")
+        return classes
+
+    @field_validator("camera_position")
+    @classmethod
+    def _camera_position(cls, position: tuple[float, float, float] | None) -> Any:
+        if position is not None and (not all(np.isfinite(position)) or not position[2] > 0):
+            raise ValueError(f"camera_position must be [X, Y, Z] in bird's-eye pixels with Z (height) > 0, "
+                             f"got {list(position)}")
+        return position
+
+    @field_validator("palette")
+    @classmethod
+    def _palette_classes(cls, palette: dict[int, tuple[int, int, int]] | None) -> Any:
+        for class_id, colour in (palette or {}).items():
+            if not 0 <= class_id <= 3:
+                raise ValueError(f"palette class id must be 0..3, got {class_id}")
+            if any(not 0 <= c <= 255 for c in colour):
+                raise ValueError(f"palette colour must be 0..255, got {colour}")
+        return palette
+
+    @model_validator(mode="after")
+    def _one_source(self) -> UserSceneConfig:
+        if self.osm is None:
+            if self.image is None or self.semantic is None:
+                raise ValueError("a scene needs image and semantic (two PNG files) or osm (an OpenStreetMap extract)")
+            return self
+        clash = [key for key in _PNG_ONLY_KEYS if key in self.model_fields_set]
+        if clash:
+            raise ValueError(f"an osm scene takes its classes and scale from osm:, not {', '.join(clash)}")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data: dict[str, Any] = handler(self)
+        if self.osm is None:
+            data.pop("osm", None)  # PNG scenes keep their configuration hash
+        else:  # what an osm scene does not take, so that the dump validates again (a store's attributes)
+            for key in _PNG_ONLY_KEYS:
+                data.pop(key, None)
+        return data
+
+
+class DatasetConfig(_Strict):
+    """One dataset: a scene and its cameras (other keys override defaults).
+
+    The cameras come from exactly one of ``grid:`` (sampled: ``pool_size`` of them)
+    or ``poses:`` (given: the real broadcast cameras of ``worldcup2014``, whose
+    pool is all of them and whose train/test sets are fixed). ``dictionary_from``
+    names the datasets whose pools provide the dictionary instead of this dataset's
+    own pool (a mixed dictionary, SPEC §6); a ``poses:`` dataset needs it.
+    ``seed`` (≥ 0) is the dataset's own pool seed, used as is; without it the pool
+    is drawn from ``defaults.seed`` and the name (:attr:`DatasetSpec.pool_entropy`).
+    ``min_field_fraction`` (0 ≤ f < 1) redraws grid cameras whose semantic map has
+    fewer non-background pixels than that share. ``dictionary`` is what ``synthcal
+    bench`` searches for this dataset (``split``, the default, or ``pool``); it
+    changes no stored byte. ``images`` is ``all`` (the default: every sample's RGB
+    image is stored) or ``splits`` (images only for samples some drawn split uses;
+    :mod:`synthcal.store.images`).
+    """
+
+    scene: str
+    grid: str | None = None
+    poses: Literal["worldcup2014"] | None = None
+    pool_size: int | None = Field(None, ge=1)
+    dictionary_from: tuple[str, ...] | None = None
+    seed: int | None = Field(None, ge=0)
+    image_size: tuple[int, int] | None = None
+    splits: SplitSizes | None = None
+    min_field_fraction: float | None = Field(None, ge=0, lt=1)
+    dictionary: Dictionary | None = None
+    images: Images | None = None
+
+    @field_validator("dictionary_from", mode="before")
+    @classmethod
+    def _one_or_many(cls, value: Any) -> Any:
+        return (value,) if isinstance(value, str) else value
+
+    @model_validator(mode="after")
+    def _cameras(self) -> DatasetConfig:
+        if (self.grid is None) == (self.poses is None):
+            given = "both" if self.grid is not None else "neither"
+            raise ValueError(f"give exactly one of grid: (sampled cameras) or poses: (given cameras), got {given}")
+        if self.grid is not None and self.pool_size is None:
+            raise ValueError("pool_size is required with grid:")
+        if self.poses is not None and self.pool_size is not None:
+            raise ValueError(f"pool_size: the poses {self.poses!r} fix the pool; leave pool_size out")
+        if self.poses is not None and not self.dictionary_from:
+            raise ValueError(f"poses {self.poses!r}: every pose is in train or test, so dictionary_from: is required")
+        if self.poses is not None and self.min_field_fraction:
+            raise ValueError(f"min_field_fraction: the poses {self.poses!r} are given cameras, none can be redrawn")
+        if self.dictionary == "pool" and self.dictionary_from:
+            raise ValueError("dictionary: pool searches the dataset's own pool, but its dictionary comes from "
+                             f"dictionary_from {list(self.dictionary_from)}; leave dictionary out")
+        return self
+
+
+class Defaults(_Strict):
+    image_size: tuple[int, int] = (256, 144)
+    focal_reference_width: int = Field(256, ge=1)
+    shard_size: int = Field(64, ge=1)
+    seed: int = Field(0, ge=0)
+    supersample: int = Field(2, ge=1, le=8)
+    appearance: AppearanceConfig = AppearanceConfig()
+    splits: SplitSizes = SplitSizes()
+    split_seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
+
+    @field_validator("image_size")
+    @classmethod
+    def _positive_size(cls, size: tuple[int, int]) -> tuple[int, int]:
+        if min(size) < 8:
+            raise ValueError(f"image_size must be at least 8 × 8 pixels, got {list(size)}")
+        return size
+
+
+class TrainingSettings(_Strict):
+    """Network sizes and schedules of the bundled models (SPEC §7) under one profile.
+
+    ``work_size`` is the ``(width, height)`` at which the networks see maps and
+    images (None: the store's image size); a smaller one trades accuracy for
+    speed on a CPU, and homographies are converted exactly between the two
+    resolutions. ``max_train`` caps the train images used (the first ones of the
+    split, which is itself a random draw). Epoch counts are per stage of
+    step-by-step training; ``end_to_end_epochs`` is the whole end-to-end
+    schedule, whose warm-up thresholds (SPEC §7: 20 and 40 of the paper's 100)
+    scale with it (:func:`synthcal.training.end_to_end_stage`).
+    ``scene_downsample`` reduces the bird's-eye map that ``L_warp`` samples, which
+    anti-aliases it (:mod:`synthcal.training`). ``stn_template`` is the template
+    the STN reads in training: ``retrieved`` (the Siamese's nearest, as at test
+    time) or ``ground-truth`` (the template of lowest matching score).
+    ``class_reduction`` is how MSE-based warp losses and matching scores reduce
+    over the class channels (SPEC §7; docs/decisions.md gives the measurement
+    behind the default).
+    """
+
+    work_size: tuple[int, int] | None = None
+    max_train: int | None = Field(None, ge=1)
+    batch_size: int = Field(16, ge=1)
+    learning_rate: float = Field(1e-3, gt=0)
+    unet_width: int = Field(16, ge=1)
+    unet_depth: int = Field(4, ge=1)
+    unet_epochs: int = Field(20, ge=1)
+    siamese_width: int = Field(32, ge=1)
+    embedding_dim: int = Field(128, ge=2)
+    siamese_epochs: int = Field(20, ge=1)
+    stn_width: int = Field(32, ge=1)
+    stn_epochs: int = Field(40, ge=1)
+    end_to_end_epochs: int = Field(100, ge=3)
+    scene_downsample: int = Field(4, ge=1)
+    stn_template: StnTemplate = "retrieved"
+    class_reduction: ClassReduction = "sum"
+
+    @field_validator("work_size")
+    @classmethod
+    def _work_size(cls, size: tuple[int, int] | None) -> tuple[int, int] | None:
+        if size is not None and min(size) < 16:
+            raise ValueError(f"work_size must be at least 16 × 16 pixels, got {list(size)}")
+        return size
+
+
+class TrainingProfile(TrainingSettings):
+    """A profile's ``training:`` block: the settings and the default segmentation.
+
+    ``segmentation: ground-truth`` feeds true semantic maps to the matching and STN
+    stages instead of a trained UNet's (SPEC §7, "Optional segmentation"); the
+    command line's ``--segmentation`` overrides it.
+    """
+
+    segmentation: Segmentation = "unet"
+
+    def settings(self) -> dict[str, Any]:
+        """The :class:`TrainingSettings` fields as a plain dict (what estimators take)."""
+        return self.model_dump(mode="json", exclude={"segmentation"})
+
+
+class ProfileConfig(_Strict):
+    """Overrides applied to every dataset: sizes for tests, laptops or the paper,
+    the sizes of the bundled models (``training:``) and the dictionary ``bench``
+    searches (``dictionary:``, for every dataset with an own pool) and which images
+    stores keep (``images:``, overriding the datasets')."""
+
+    image_size: tuple[int, int] | None = None
+    shard_size: int | None = Field(None, ge=1)
+    max_pool_size: int | None = Field(None, ge=1)
+    supersample: int | None = Field(None, ge=1, le=8)
+    splits: SplitSizes | None = None
+    training: TrainingProfile | None = None
+    dictionary: Dictionary | None = None
+    images: Images | None = None
+
+
+class Config(_Strict):
+    version: int = 1
+    defaults: Defaults = Defaults()
+    grids: dict[str, GridConfig]
+    scenes: dict[str, UserSceneConfig] = {}
+    datasets: dict[str, DatasetConfig]
+    # target dataset → the datasets whose pools give its mixed dictionary (SPEC §6)
+    mixed_dictionaries: dict[str, tuple[str, ...]] = {}
+    profiles: dict[str, ProfileConfig] = {}

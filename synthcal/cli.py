@@ -19,6 +19,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from synthcal.config.vocabulary import DEFAULT_READING, DESCRIPTIONS, METRICS
+
 if TYPE_CHECKING:
     import pandas as pd
     import zarr
@@ -387,13 +389,10 @@ def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> No
     _print_tables(frame, None, "md", False)
 
 
-# The reading tables show by default: synthcal.eval.metrics.DEFAULT_READING (a test checks they agree;
-# the parser does not import the metrics module, which pulls in OpenCV).
-DEFAULT_METRIC = "iou_weighted"
 
 
 def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool,
-                  metric: str = DEFAULT_METRIC) -> None:
+                  metric: str = DEFAULT_READING) -> None:
     """Print :func:`synthcal.eval.report.results_tables`."""
     from synthcal.eval.report import ReportError, results_tables
 
@@ -469,19 +468,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 1 if len(failed) else 0
 
 
-def _check_metric(name: str) -> None:
-    """``--metric`` of ``table`` and ``plot``: one of :data:`synthcal.eval.metrics.METRICS`."""
-    from synthcal.config import METRICS
-
-    if name not in METRICS:
-        raise _UserError(f"--metric: unknown metric {name!r}; one of {', '.join(METRICS)}")
-
-
 def _cmd_table(args: argparse.Namespace) -> None:
     from synthcal.eval.harness import collect_results
     from synthcal.eval.tables import failed_runs
 
-    _check_metric(args.metric)
     if not args.results.is_dir():
         raise _UserError(f"{args.results}: no such results folder")
     frame = collect_results(args.results)
@@ -503,7 +493,6 @@ def _cmd_plot(args: argparse.Namespace) -> None:
     from synthcal.eval.harness import collect_results
     from synthcal.eval.plots import plot_iou, plot_overlays
 
-    _check_metric(args.metric)
     frame = collect_results(args.results)
     if frame.empty:
         raise _UserError(f"{args.results}: no finished runs")
@@ -742,10 +731,7 @@ def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md", help="table format (default md)")
     p.add_argument("--compare-paper", action="store_true",
                    help="add the published figures (for each reading of the paper's IoU: iou, iou_bg, iou_weighted)")
-    p.add_argument("--metric", default=DEFAULT_METRIC,
-                   help="iou_weighted (default: sklearn's weighted Jaccard over classes 0-3, as the public "
-                        "re-implementation of Sha et al.; docs/reproduction.md says why), iou (mean over classes "
-                        "1-3), iou_bg (classes 0-3), iou_part, iou_whole")
+    p.add_argument("--metric", default=DEFAULT_READING, choices=METRICS, help=_metric_help("the reading shown"))
     p.add_argument("--paired", nargs=2, default=None, metavar=("A", "B"),
                    help="instead of the tables: per dataset and loss (and other settings), the mean ± std over "
                         "seeds of the per-seed difference A − B of two models trained on the same split, the "
@@ -754,14 +740,20 @@ def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.set_defaults(func=_cmd_table)
 
 
+def _metric_help(what: str) -> str:
+    """``--metric``'s help: every reading with its description, the default marked."""
+    readings = "; ".join(f"{name}{' (default)' if name == DEFAULT_READING else ''}: {DESCRIPTIONS[name]}"
+                         for name in METRICS)
+    return f"{what}. {readings}. docs/benchmark.md says why the default is what it is"
+
+
 def _add_plot(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("plot", help="IoU bars per dataset and estimator, and overlays of test images")
     p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
     p.add_argument("-o", "--output", type=Path, required=True, help="folder receiving the PNGs")
     p.add_argument("--count", type=_positive_int, default=3, help="test images per overlay figure (default 3)")
-    p.add_argument("--metric", default=DEFAULT_METRIC,
-                   help="the metric the bars and overlay titles show: iou_weighted (default), iou, iou_bg, "
-                        "iou_part, iou_whole (as for table)")
+    p.add_argument("--metric", default=DEFAULT_READING, choices=METRICS,
+                   help=_metric_help("the reading the bars and overlay titles show"))
     p.set_defaults(func=_cmd_plot)
 
 

@@ -205,7 +205,7 @@ def test_plot_draws_the_metric_it_is_given(data, tmp_path, monkeypatch, capsys):
     assert heights["iou"] != pytest.approx(heights["iou_bg"])  # the two readings differ here: the bars show which
     capsys.readouterr()
     assert main(["plot", str(results), "-o", str(tmp_path / "x"), "--metric", "miou"]) == 2
-    assert "--metric: unknown metric 'miou'" in capsys.readouterr().err
+    assert "--metric: invalid choice: 'miou'" in capsys.readouterr().err
 
 
 def test_reference_estimators_sit_in_every_row():

@@ -83,8 +83,9 @@ __all__ = [
 
 # --- option vocabularies (SPEC §7, §9) ------------------------------------------------------------
 
-# The paper's STN (``proposed``) or Sha et al.'s localisation network (``baseline``).
-Model = Literal["proposed", "baseline"]
+# The paper's STN (``proposed``), Sha et al.'s localisation network as the paper describes it
+# (``baseline``) or as the public CCBV re-implementation builds it (``ccbv``).
+Model = Literal["proposed", "baseline", "ccbv"]
 # Three stages one after another, each with its own loss, or all at once (SPEC §7).
 Training = Literal["step-by-step", "end-to-end"]
 # ``L_warp``: plain or topological (patch-wise) MSE / Dice (SPEC §7).
@@ -114,7 +115,7 @@ CLASS_REDUCTIONS: tuple[ClassReduction, ...] = get_args(ClassReduction)
 DICTIONARIES: tuple[Dictionary, ...] = get_args(Dictionary)
 
 # Model option → its label in run records and tables (the paper calls the baseline "sha2020").
-MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020"}
+MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020", "ccbv": "sha2020-ccbv"}
 
 GRID_AXES = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
 
@@ -477,7 +478,9 @@ class TrainingSettings(_Strict):
     time) or ``ground-truth`` (the template of lowest matching score).
     ``class_reduction`` is how MSE-based warp losses and matching scores reduce
     over the class channels (SPEC §7; docs/decisions.md gives the measurement
-    behind the default).
+    behind the default). ``batch_norm`` switches the STN's batch normalisation
+    (None: each STN's own default — on for ``proposed`` and ``ccbv``, off for
+    ``baseline``; :mod:`synthcal.models.stn`), so BN is an ablation of its own.
     """
 
     work_size: tuple[int, int] | None = None
@@ -496,6 +499,7 @@ class TrainingSettings(_Strict):
     scene_downsample: int = Field(4, ge=1)
     stn_template: StnTemplate = "retrieved"
     class_reduction: ClassReduction = "sum"
+    batch_norm: bool | None = None
 
     @field_validator("work_size")
     @classmethod
@@ -516,8 +520,13 @@ class TrainingProfile(TrainingSettings):
     segmentation: Segmentation = "unet"
 
     def settings(self) -> dict[str, Any]:
-        """The :class:`TrainingSettings` fields as a plain dict (what estimators take)."""
-        return self.model_dump(mode="json", exclude={"segmentation"})
+        """The :class:`TrainingSettings` fields as a plain dict (what estimators take).
+
+        ``batch_norm`` is left out while None (each STN's default), so that the runs
+        recorded before it existed keep their ids (the settings are in the run's hash).
+        """
+        unset = {"batch_norm"} if self.batch_norm is None else set()
+        return self.model_dump(mode="json", exclude={"segmentation", *unset})
 
 
 class ProfileConfig(_Strict):

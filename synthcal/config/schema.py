@@ -358,7 +358,9 @@ class TrainingSettings(_Strict):
     time) or ``ground-truth`` (the template of lowest matching score).
     ``class_reduction`` is how MSE-based warp losses and matching scores reduce
     over the class channels (SPEC §7; docs/decisions.md gives the measurement
-    behind the default).
+    behind the default). ``batch_norm`` switches the STN's batch normalisation
+    (None: each STN's own default — on for ``proposed`` and ``ccbv``, off for
+    ``baseline``; :mod:`synthcal.models.stn`), so BN is an ablation of its own.
     """
 
     work_size: tuple[int, int] | None = None
@@ -377,6 +379,7 @@ class TrainingSettings(_Strict):
     scene_downsample: int = Field(4, ge=1)
     stn_template: StnTemplate = "retrieved"
     class_reduction: ClassReduction = "sum"
+    batch_norm: bool | None = None
 
     @field_validator("work_size")
     @classmethod
@@ -397,8 +400,13 @@ class TrainingProfile(TrainingSettings):
     segmentation: Segmentation = "unet"
 
     def settings(self) -> dict[str, Any]:
-        """The :class:`TrainingSettings` fields as a plain dict (what estimators take)."""
-        return self.model_dump(mode="json", exclude={"segmentation"})
+        """The :class:`TrainingSettings` fields as a plain dict (what estimators take).
+
+        ``batch_norm`` is left out while None (each STN's default), so that the runs
+        recorded before it existed keep their ids (the settings are in the run's hash).
+        """
+        unset = {"batch_norm"} if self.batch_norm is None else set()
+        return self.model_dump(mode="json", exclude={"segmentation", *unset})
 
 
 class ProfileConfig(_Strict):

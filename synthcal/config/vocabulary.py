@@ -54,8 +54,9 @@ __all__ = [
 
 # --- option vocabularies (SPEC §7, §9) ------------------------------------------------------------
 
-# The paper's STN (``proposed``) or Sha et al.'s localisation network (``baseline``).
-Model = Literal["proposed", "baseline"]
+# The paper's STN (``proposed``), Sha et al.'s localisation network as the paper describes it
+# (``baseline``) or as the public CCBV re-implementation builds it (``ccbv``).
+Model = Literal["proposed", "baseline", "ccbv"]
 # Three stages one after another, each with its own loss, or all at once (SPEC §7).
 Training = Literal["step-by-step", "end-to-end"]
 # ``L_warp``: plain or topological (patch-wise) MSE / Dice (SPEC §7).
@@ -85,7 +86,7 @@ CLASS_REDUCTIONS: tuple[ClassReduction, ...] = get_args(ClassReduction)
 DICTIONARIES: tuple[Dictionary, ...] = get_args(Dictionary)
 
 # Model option → its label in run records and tables (the paper calls the baseline "sha2020").
-MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020"}
+MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020", "ccbv": "sha2020-ccbv"}
 
 GRID_AXES = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
 

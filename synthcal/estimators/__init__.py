@@ -3,7 +3,10 @@
 * :mod:`synthcal.estimators.protocol` — what an estimator is (``fit``, ``predict``);
 * :mod:`synthcal.estimators.registry` — a name (an entry point) or ``package.module:Class`` → an instance;
 * :mod:`synthcal.estimators.classic` — ``identity``, ``template``, ``ecc``;
-* :mod:`synthcal.estimators.paper` — the paper's ``proposed`` and ``baseline`` models.
+* :mod:`synthcal.estimators.paper` — the paper's ``proposed`` and ``baseline`` (``sha2020``) models and
+  ``sha2020-ccbv`` (Sha et al.'s STN as the public CCBV code builds it);
+* :mod:`synthcal.estimators.diagnostic` — ``retrieved`` (the Siamese's template, no STN) and
+  ``oracle-template`` (the template of lowest true matching score).
 
 Convention: every homography maps a bird's-eye pixel to an image pixel,
 ``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).

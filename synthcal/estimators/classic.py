@@ -21,8 +21,11 @@ Bundled here (the learned models live in :mod:`synthcal.models`)
     ``template``, then refined by OpenCV's ECC (``MOTION_HOMOGRAPHY``) between the
     template's and the image's semantic maps: ``H = W · H_k`` with ``W`` the found
     template-pixel → image-pixel warp.
-``proposed``, ``baseline`` (alias ``sha2020``)
+``proposed``, ``baseline`` (alias ``sha2020``), ``sha2020-ccbv``
     The paper's models, UNet → Siamese → STN (:mod:`synthcal.estimators.paper`).
+``retrieved``, ``oracle-template``
+    Diagnostics: the Siamese's template alone, and the best template by the true
+    matching score (:mod:`synthcal.estimators.diagnostic`).
 """
 
 from __future__ import annotations

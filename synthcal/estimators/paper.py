@@ -11,9 +11,16 @@ Options
 The option values are defined once, in :mod:`synthcal.config`.
 
 ``model``
-    ``proposed`` (the paper's STN: LocBlocks, self-attention, three FC layers) or
-    ``baseline`` (Sha et al.'s plain localisation network). Table label
-    ``proposed`` / ``sha2020`` (:data:`synthcal.config.MODEL_LABELS`).
+    ``proposed`` (the paper's STN: LocBlocks, self-attention, three FC layers),
+    ``baseline`` (Sha et al.'s plain localisation network, as the paper describes
+    it) or ``ccbv`` (Sha et al.'s as the public CCBV re-implementation builds it:
+    residual conv–BN–LeakyReLU blocks, FC 9216 → 4096 → 1024 → 8 at 256 × 144;
+    :class:`synthcal.models.CcbvSTN`, which ignores ``stn_width``). Table label
+    ``proposed`` / ``sha2020`` / ``sha2020-ccbv``
+    (:data:`synthcal.config.MODEL_LABELS`), with ``+bn`` or ``+no-bn`` appended
+    when ``settings.batch_norm`` departs from the STN's own default
+    (:func:`model_label`), so that an ablation row never averages with the
+    model's plain runs.
 ``training``
     ``step-by-step``: UNet (cross-entropy), then Siamese (contrastive loss, pairs
     from the ground-truth matching), then STN (``L_warp``), each with its own loss
@@ -43,6 +50,8 @@ The option values are defined once, in :mod:`synthcal.config`.
     joint embedding's) or ``ground-truth`` (lowest matching score); and
     ``class_reduction`` — ``sum`` (default) or ``mean`` over the class channels in
     MSE, ``L_Top-MSE`` and the matching scores (SPEC §7, docs/decisions.md).
+    ``batch_norm`` switches the STN's batch normalisation (None: the STN's default:
+    on for ``proposed`` and ``ccbv``, off for ``baseline``).
 ``device``
     ``auto`` (CUDA when available), ``cpu``, ``cuda``…: the same code on both.
 ``cache_dir``
@@ -68,9 +77,9 @@ The option values are defined once, in :mod:`synthcal.config`.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any, TypedDict, TypeVar, cast
+from typing import Any, ClassVar, TypedDict, TypeVar, cast
 
 import numpy as np
 import torch
@@ -94,6 +103,7 @@ from synthcal.config import (
 from synthcal.estimators.protocol import SceneLike, SplitLike
 from synthcal.models import (
     BaselineSTN,
+    CcbvSTN,
     ProposedSTN,
     SiameseNet,
     UNet,
@@ -123,13 +133,33 @@ from synthcal.training import (
     train_unet,
 )
 
-__all__ = ["PaperEstimator", "ProposedEstimator", "BaselineEstimator"]
+__all__ = ["STN_CLASSES", "BATCH_NORM_DEFAULTS", "model_label", "PaperEstimator", "ProposedEstimator",
+           "BaselineEstimator", "CcbvEstimator"]
+
+# The STN of each ``model`` option.
+STN_CLASSES: dict[Model, type[nn.Module]] = {"proposed": ProposedSTN, "baseline": BaselineSTN, "ccbv": CcbvSTN}
+# Each STN's own batch-norm default, read from its signature (one place states it).
+BATCH_NORM_DEFAULTS: dict[Model, bool] = {
+    model: bool(inspect.signature(cls).parameters["batch_norm"].default) for model, cls in STN_CLASSES.items()}
+
+
+def model_label(model: Model, batch_norm: bool | None = None) -> str:
+    """Table label of a ``model`` run: :data:`MODEL_LABELS`, ``+bn`` / ``+no-bn`` when ``batch_norm``
+    departs from the STN's default.
+
+    >>> model_label("baseline"), model_label("baseline", True), model_label("proposed", False)
+    ('sha2020', 'sha2020+bn', 'proposed+no-bn')
+    """
+    if batch_norm is None or batch_norm == BATCH_NORM_DEFAULTS[model]:
+        return MODEL_LABELS[model]
+    return MODEL_LABELS[model] + ("+bn" if batch_norm else "+no-bn")
 
 # Batches of images scored per forward pass at test time.
 _PREDICT_BATCH = 64
 
 _Option = TypeVar("_Option", bound=str)
 _Module = TypeVar("_Module", bound=nn.Module)
+_Estimator = TypeVar("_Estimator", bound="PaperEstimator")
 
 
 def _choice(name: str, value: str, allowed: Sequence[_Option]) -> _Option:
@@ -181,6 +211,8 @@ class PaperEstimator:
     """
 
     label = "proposed"
+    # The ``model`` a subclass fixes (the class-level label of its runs, :meth:`variant_label`).
+    model_option: ClassVar[Model] = "proposed"
 
     def __init__(self, model: Model = "proposed", training: Training = "step-by-step", loss: Loss = "top-mse",
                  matching: Matching = "top-mse", segmentation: Segmentation = "unet",
@@ -199,10 +231,17 @@ class PaperEstimator:
         self.cache = StageCache(cache_dir)
         self.seed = int(seed)
         self.progress = progress
-        self.label = MODEL_LABELS[self.model]
+        self.label = model_label(self.model, self.settings.batch_norm)
         self.trained_stages: list[str] = []
         self.history: dict[str, list[float]] = {}
         self._fitted: dict[str, Any] | None = None
+
+    @classmethod
+    def variant_label(cls, settings: TrainingSettings | Mapping[str, Any] | None) -> str:
+        """The table label of this class's runs under ``settings`` (a run's, before any instance exists)."""
+        batch_norm = settings.batch_norm if isinstance(settings, TrainingSettings) else (settings or {}).get(
+            "batch_norm")
+        return model_label(cls.model_option, batch_norm)
 
     # --- building blocks ------------------------------------------------------------------
 
@@ -222,9 +261,11 @@ class PaperEstimator:
         return SiameseNet(NUM_CLASSES, embedding_dim=self.settings.embedding_dim, width=self.settings.siamese_width)
 
     def _stn(self, work_size: tuple[int, int]) -> nn.Module:
-        cls = ProposedSTN if self.model == "proposed" else BaselineSTN
+        options: dict[str, Any] = {} if self.model == "ccbv" else {"width": self.settings.stn_width}
+        if self.settings.batch_norm is not None:
+            options["batch_norm"] = self.settings.batch_norm
         torch.manual_seed(self.seed)
-        return cls(2 * NUM_CLASSES, image_size=work_size, width=self.settings.stn_width)
+        return STN_CLASSES[self.model](2 * NUM_CLASSES, image_size=work_size, **options)
 
     def _data(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> tuple[TrainingData, dict[str, str]]:
         """The train split and dictionary at the working resolution, the ground-truth
@@ -304,6 +345,7 @@ class PaperEstimator:
                          progress=self.progress)
         unet: nn.Module | None
         embedding: Tensor | None = None
+        stn: nn.Module | None
         if self.training == "end-to-end":
             unet = self._unet() if self.uses_unet else ClassMapLogits()
             siamese, stn = self._siamese(), self._stn(data.work_size)
@@ -312,33 +354,51 @@ class PaperEstimator:
                              **common)
             self.trained_stages.append("end-to-end")
         else:
-            unet_key = None
-            unet = None
-            if self.uses_unet:
-                unet_key = digest("unet", keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
-                                  s.learning_rate, self.seed)
-                unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
-                    m, data, s.unet_epochs, log=log, **common))
-            siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,
-                                 s.siamese_width, s.embedding_dim, s.siamese_epochs, s.batch_size, s.learning_rate,
-                                 self.seed)
-            siamese = self._stage("siamese", siamese_key, self._siamese(), lambda m, log: train_siamese(
-                m, data, unet, s.siamese_epochs, log=log, **common))
-            embedding = self._embedding(siamese_key, keys["dictionary"], siamese, data)
-            templates = stn_templates(s.stn_template, data, siamese, unet, device, dictionary=embedding)
-            stn = train_stn(self._stn(data.work_size), data, unet, self.loss, s.stn_epochs, log=self._log("stn"),
-                            templates=templates, class_reduction=s.class_reduction, **common)
-            self.trained_stages.append("stn")
+            unet, siamese, embedding = self._shared_stages(data, keys, common)
+            stn = self._refiner(data, unet, siamese, embedding, common)
         self._fitted = {
             "unet": unet if self.uses_unet else None,
             "siamese": siamese.eval(),
-            "stn": stn.eval(),
+            "stn": None if stn is None else stn.eval(),
             "embedding": embed_templates(siamese, data, device) if embedding is None else embedding.to(device),
             "templates": data.templates.to(device),
             "template_homographies": data.template_homographies.to(device),
+            "dictionary_homographies": np.asarray(dictionary.homographies, np.float64),
             "A": resolution_matrix((train.semantics.shape[2], train.semantics.shape[1]), data.work_size),
             "work_size": data.work_size,
         }
+
+    def _shared_stages(self, data: TrainingData, keys: dict[str, str],
+                       common: _Common) -> tuple[nn.Module | None, SiameseNet, Tensor]:
+        """Step-by-step: the UNet (None under ``segmentation: ground-truth``) and the Siamese, each
+        loaded from the cache or trained into it, and the dictionary embedded by the Siamese. Their
+        keys hold neither the model nor its STN settings: every step-by-step run on the same data
+        and stage settings shares them."""
+        s = self.settings
+        unet_key = None
+        unet = None
+        if self.uses_unet:
+            unet_key = digest("unet", keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
+                              s.learning_rate, self.seed)
+            unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
+                m, data, s.unet_epochs, log=log, **common))
+        siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,
+                             s.siamese_width, s.embedding_dim, s.siamese_epochs, s.batch_size, s.learning_rate,
+                             self.seed)
+        siamese = self._stage("siamese", siamese_key, self._siamese(), lambda m, log: train_siamese(
+            m, data, unet, s.siamese_epochs, log=log, **common))
+        return unet, siamese, self._embedding(siamese_key, keys["dictionary"], siamese, data)
+
+    def _refiner(self, data: TrainingData, unet: nn.Module | None, siamese: SiameseNet, embedding: Tensor,
+                 common: _Common) -> nn.Module | None:
+        """Step-by-step: the STN, trained on the templates ``stn_template`` names (never cached).
+        None: no refinement (a subclass's choice)."""
+        s = self.settings
+        templates = stn_templates(s.stn_template, data, siamese, unet, self.device, dictionary=embedding)
+        stn = train_stn(self._stn(data.work_size), data, unet, self.loss, s.stn_epochs, log=self._log("stn"),
+                        templates=templates, class_reduction=s.class_reduction, **common)
+        self.trained_stages.append("stn")
+        return stn
 
     # --- prediction -----------------------------------------------------------------------
 
@@ -378,34 +438,51 @@ class PaperEstimator:
         return np.concatenate(out) if out else np.empty((0, 3, 3))
 
 
-def _fixed_model(cls: type[PaperEstimator]) -> type[PaperEstimator]:
-    """Give a one-model subclass the parent's signature without ``model``.
+def _fixed_options(*names: str) -> Callable[[type[_Estimator]], type[_Estimator]]:
+    """Give a subclass that fixes ``names`` the parent's signature without them.
 
     Its ``__init__(**options)`` forwards everything; the explicit signature lets
-    callers (the harness) see which options it takes.
+    callers (the harness) see which options it takes, hence which axes apply.
     """
-    signature = inspect.signature(PaperEstimator.__init__)
-    init = cast(Any, cls.__init__)  # a function object: it takes the attribute inspect reads
-    init.__signature__ = signature.replace(
-        parameters=[p for name, p in signature.parameters.items() if name != "model"])
-    return cls
+    def fix(cls: type[_Estimator]) -> type[_Estimator]:
+        signature = inspect.signature(PaperEstimator.__init__)
+        init = cast(Any, cls.__init__)  # a function object: it takes the attribute inspect reads
+        init.__signature__ = signature.replace(
+            parameters=[p for name, p in signature.parameters.items() if name not in names])
+        return cls
+    return fix
 
 
-@_fixed_model
+@_fixed_options("model")
 class ProposedEstimator(PaperEstimator):
     """The paper's proposed model (bundled name ``proposed``)."""
 
     label = "proposed"
+    model_option = "proposed"
 
     def __init__(self, **options: Any) -> None:
         super().__init__(model="proposed", **options)
 
 
-@_fixed_model
+@_fixed_options("model")
 class BaselineEstimator(PaperEstimator):
-    """Sha et al.'s baseline STN in the same pipeline (bundled names ``baseline``, ``sha2020``)."""
+    """Sha et al.'s baseline STN, as the paper describes it, in the same pipeline (bundled names
+    ``baseline``, ``sha2020``)."""
 
     label = "sha2020"
+    model_option = "baseline"
 
     def __init__(self, **options: Any) -> None:
         super().__init__(model="baseline", **options)
+
+
+@_fixed_options("model")
+class CcbvEstimator(PaperEstimator):
+    """Sha et al.'s STN as the public CCBV re-implementation builds it, in the same pipeline
+    (bundled name ``sha2020-ccbv``; :class:`synthcal.models.CcbvSTN`)."""
+
+    label = "sha2020-ccbv"
+    model_option = "ccbv"
+
+    def __init__(self, **options: Any) -> None:
+        super().__init__(model="ccbv", **options)

@@ -7,7 +7,8 @@ entry-point group ``synthcal.estimators``.
 The bundled estimators are synthcal's own entry points in that group (the
 ``[project.entry-points."synthcal.estimators"]`` table of ``pyproject.toml``, the
 one list of their names): ``identity``, ``template``, ``ecc``, ``proposed``,
-``baseline`` and its alias ``sha2020``. Plug-ins add theirs the same way; a
+``baseline`` and its alias ``sha2020``, ``sha2020-ccbv``, and the diagnostics
+``retrieved`` and ``oracle-template``. Plug-ins add theirs the same way; a
 plug-in cannot shadow a bundled name.
 """
 
@@ -79,7 +80,7 @@ def resolve_estimator(name_or_path: str) -> Any:
     Resolution order: a value containing ``:`` is a dotted path
     ``package.module:Class``; otherwise a bundled short name (synthcal's own entry
     point of that name: ``identity``, ``template``, ``ecc``, ``proposed``,
-    ``baseline``, ``sha2020`` — bundled names cannot be shadowed by third-party
+    ``baseline``, ``sha2020``, ``sha2020-ccbv``, ``retrieved``, ``oracle-template`` — bundled names cannot be shadowed by third-party
     packages); otherwise another distribution's entry point of that name in group
     ``synthcal.estimators``.
 

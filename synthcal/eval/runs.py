@@ -176,8 +176,12 @@ def constructor_parameters(cls: Any) -> set[str]:
         return set()
 
 
-def estimator_label(name: str, cls: Any) -> str:
-    """Table label: the class's ``label``, else the short name, else the class name."""
+def estimator_label(name: str, cls: Any, settings: dict[str, Any] | None = None) -> str:
+    """Table label: the class's ``variant_label(settings)`` where it has one (a variant such as a
+    batch-norm ablation labels its own row), else its ``label``, else the short name, else the class name."""
+    variant = getattr(cls, "variant_label", None)
+    if callable(variant):
+        return str(variant(settings))
     label = getattr(cls, "label", None)
     if isinstance(label, str):
         return label
@@ -302,10 +306,11 @@ def _estimator_runs(name: str, base: dict[str, Any], values: dict[str, Sequence[
     applies = {a: (hasattr(cls, "predict_semantic") if a == "segmentation" else a in params) for a in AXES}
     grid: list[Sequence[str | None]] = [values[a] if applies[a] else [None] for a in AXES]
     runs = []
+    taken = settings if "settings" in params else None
     for seed, combo in itertools.product(seeds, itertools.product(*grid)):
         axes: dict[str, Any] = dict(zip(AXES, combo, strict=True))
-        runs.append(Run(**base, estimator=name, model=estimator_label(name, cls), seed=int(seed), profile=profile,
-                        settings=settings if "settings" in params else None,
+        runs.append(Run(**base, estimator=name, model=estimator_label(name, cls, taken), seed=int(seed),
+                        profile=profile, settings=taken,
                         device=device if "device" in params else None, **axes))
     return runs
 

@@ -4,7 +4,7 @@
 * :mod:`.siamese` — semantic-map embeddings (:class:`SiameseNet`), contrastive loss,
   chunked nearest-neighbour search over a dictionary.
 * :mod:`.matching` — ground-truth matches (lowest MSE / ``L_Top-MSE``) by GEMM.
-* :mod:`.stn` — baseline and proposed STNs, :func:`compose_homography`.
+* :mod:`.stn` — baseline (paper and CCBV) and proposed STNs, :func:`compose_homography`.
 * :mod:`.warp` — cheirality-masked warping (nearest: exactly the renderer;
   bilinear: differentiable).
 * :mod:`.losses` — MSE, Dice, ``L_Top-MSE``, ``L_Top-Dice`` (MSE's reduction over
@@ -31,7 +31,17 @@ from .losses import (
 )
 from .matching import MatchResult, match_ground_truth, merge_matches, pairwise_scores
 from .siamese import SiameseNet, contrastive_loss, nearest_embeddings
-from .stn import BaselineSTN, LocBlock, ProposedSTN, SelfAttention2d, compose_homography, h_bar_matrix
+from .stn import (
+    BaselineSTN,
+    CcbvBlock,
+    CcbvSTN,
+    LocBlock,
+    ProposedSTN,
+    SelfAttention2d,
+    ccbv_hidden,
+    compose_homography,
+    h_bar_matrix,
+)
 from .unet import UNet, segmentation_loss
 from .warp import cheirality_mask, ground_coordinates, warp_semantic
 
@@ -40,6 +50,9 @@ __all__ = [
     "CLASS_REDUCTIONS",
     "STN_TEMPLATES",
     "BaselineSTN",
+    "CcbvBlock",
+    "CcbvSTN",
+    "ccbv_hidden",
     "CompositeModel",
     "CompositeOutput",
     "LocBlock",

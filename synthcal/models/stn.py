@@ -19,16 +19,32 @@ Both end in fully connected layers on the *flattened* feature map (no pooling to
 fixed grid: the paper names none), so each network is built for one image size
 ``(W, H)`` and says so when given another.
 
-* :class:`BaselineSTN` (Sha et al.: the classic STN localisation network of
-  Jaderberg et al., two convolutional "location layers", then the FC regressor):
-  conv 7×7 stride 2 → max-pool 2 → ReLU; conv 5×5 → max-pool 2 → ReLU; flatten;
-  FC → ReLU → FC(8). No normalisation, no residuals. Features at /8
-  (``2·width × 9 × 16`` at 128 × 72).
+* :class:`BaselineSTN` (Sha et al. as the paper describes them: the classic STN
+  localisation network of Jaderberg et al., two convolutional "location layers",
+  then the FC regressor): conv 7×7 stride 2 → max-pool 2 → ReLU; conv 5×5 →
+  max-pool 2 → ReLU; flatten; FC → ReLU → FC(8). No residuals; no normalisation by
+  default. Features at /8 (``2·width × 9 × 16`` at 128 × 72).
+* :class:`CcbvSTN` (the public re-implementation of Sha et al. that practitioners
+  use, github.com/evs-broadcast/CCBV, ``models.py``; written here from its
+  description): three :class:`CcbvBlock` (residual conv–BN–LeakyReLU), each
+  followed by a max-pool of 4, 2, 2 (floor); channels 16, 32, 64; flatten; FC
+  9216 → 4096 → 1024 → 8 with ReLU at 256 × 144 (64 × 9 × 16 = 9,216 features).
+  At other sizes the flattened count follows the input and the hidden widths
+  scale with it (:func:`ccbv_hidden`).
 * :class:`ProposedSTN` (the paper's): three :class:`LocBlock` (residual, each
   halves the resolution: /8 overall, ``4·width × 9 × 16`` at 128 × 72);
   :class:`SelfAttention2d` (Vaswani et al.'s scaled dot-product attention over the
   positions, residual and layer norm); flatten; three FC layers
   (→ 256 → 64 → 8, ReLU between).
+
+Batch normalisation
+-------------------
+Each network takes ``batch_norm``, so that BN is an ablation row rather than a
+confound between models. Defaults keep each network as it is described: the
+proposed STN's LocBlocks and the CCBV blocks have it (``True``), the baseline's
+two location layers do not (``False``). Without BN a convolution gets a bias;
+with it, BN follows each convolution (before the pool and activation in the
+baseline). The self-attention's layer norm is not batch norm and stays.
 
 Example
 -------
@@ -45,7 +61,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from .layers import conv_bn_relu
+from .layers import conv_bn_relu, conv_norm
 
 __all__ = [
     "IDENTITY_H8",
@@ -54,7 +70,10 @@ __all__ = [
     "compose_homography",
     "LocBlock",
     "SelfAttention2d",
+    "CcbvBlock",
+    "ccbv_hidden",
     "BaselineSTN",
+    "CcbvSTN",
     "ProposedSTN",
 ]
 
@@ -164,20 +183,18 @@ class LocBlock(nn.Module):
 
     ``main``: conv 3×3 stride 2 → BN → ReLU → conv 3×3 → BN;
     ``shortcut``: conv 1×1 stride 2 → BN; output ``ReLU(main + shortcut)``.
+    ``batch_norm=False`` drops the three BNs (the convolutions then have biases).
 
     Shapes: (B, in_channels, H, W) → (B, out_channels, ⌈H/2⌉, ⌈W/2⌉).
     """
 
-    def __init__(self, in_channels: int, out_channels: int):
+    def __init__(self, in_channels: int, out_channels: int, batch_norm: bool = True):
         super().__init__()
         self.main = nn.Sequential(
-            conv_bn_relu(in_channels, out_channels, 3, stride=2),
-            nn.Conv2d(out_channels, out_channels, 3, padding=1, bias=False),
-            nn.BatchNorm2d(out_channels),
+            conv_bn_relu(in_channels, out_channels, 3, stride=2, batch_norm=batch_norm),
+            *conv_norm(out_channels, out_channels, 3, batch_norm=batch_norm),
         )
-        self.shortcut = nn.Sequential(
-            nn.Conv2d(in_channels, out_channels, 1, stride=2, bias=False), nn.BatchNorm2d(out_channels)
-        )
+        self.shortcut = nn.Sequential(*conv_norm(in_channels, out_channels, 1, stride=2, batch_norm=batch_norm))
 
     def forward(self, x: Tensor) -> Tensor:
         return torch.relu(self.main(x) + self.shortcut(x))
@@ -227,18 +244,102 @@ class BaselineSTN(nn.Module):
         image_size: ``(W, H)`` of the inputs (keyword only: the FC layers depend on it).
         width: channels of the first convolution (then 2·width).
         hidden: width of the hidden FC layer.
+        batch_norm: BN after each convolution (off by default: the paper's
+            description has none; module docstring).
 
     Shapes: (B, in_channels, H, W) → (B, 8) values of ``H̄``.
     """
 
-    def __init__(self, in_channels: int = 8, *, image_size: tuple[int, int], width: int = 32, hidden: int = 128):
+    def __init__(self, in_channels: int = 8, *, image_size: tuple[int, int], width: int = 32, hidden: int = 128,
+                 batch_norm: bool = False):
         super().__init__()
         self.image_size = (int(image_size[0]), int(image_size[1]))
         self.features = nn.Sequential(
-            nn.Conv2d(in_channels, width, 7, stride=2, padding=3), nn.MaxPool2d(2, ceil_mode=True), nn.ReLU(True),
-            nn.Conv2d(width, 2 * width, 5, padding=2), nn.MaxPool2d(2, ceil_mode=True), nn.ReLU(True),
+            *conv_norm(in_channels, width, 7, stride=2, batch_norm=batch_norm),
+            nn.MaxPool2d(2, ceil_mode=True), nn.ReLU(True),
+            *conv_norm(width, 2 * width, 5, batch_norm=batch_norm), nn.MaxPool2d(2, ceil_mode=True), nn.ReLU(True),
         )
         self.head = _regression_head(_feature_count(self.features, in_channels, image_size), (hidden,))
+
+    def forward(self, x: Tensor) -> Tensor:
+        x = _checked_input(x, self.image_size, type(self).__name__)
+        return self.head(self.features(x))
+
+
+def _conv_bn_leaky(in_channels: int, out_channels: int, batch_norm: bool) -> nn.Sequential:
+    """Conv 3×3 (with bias, as the public layers keep it under BN: same parameter count) → BN → LeakyReLU."""
+    norm = [nn.BatchNorm2d(out_channels)] if batch_norm else []
+    return nn.Sequential(nn.Conv2d(in_channels, out_channels, 3, padding=1), *norm, nn.LeakyReLU(inplace=True))
+
+
+class CcbvBlock(nn.Module):
+    """Residual block of the CCBV localisation network, then its max-pool.
+
+    ``a = f₁(x)``, ``out = pool(f₂(f₂(a) + a))`` with ``fᵢ`` conv 3×3 → BN →
+    LeakyReLU (slope 0.01); ``f₂`` is one layer applied twice, its weights (and its
+    BN's statistics) shared, as in the public code. ``batch_norm=False`` drops both BNs.
+
+    Shapes: (B, in_channels, H, W) → (B, out_channels, ⌊H/pool⌋, ⌊W/pool⌋).
+    """
+
+    def __init__(self, in_channels: int, out_channels: int, pool: int, batch_norm: bool = True):
+        super().__init__()
+        self.first = _conv_bn_leaky(in_channels, out_channels, batch_norm)
+        self.second = _conv_bn_leaky(out_channels, out_channels, batch_norm)
+        self.pool = nn.MaxPool2d(pool)
+
+    def forward(self, x: Tensor) -> Tensor:
+        a = self.first(x)
+        return self.pool(self.second(self.second(a) + a))
+
+
+# The public network's flattened features and hidden FC widths at its 256 × 144 input.
+CCBV_FEATURES = 9216
+CCBV_HIDDEN = (4096, 1024)
+
+
+def ccbv_hidden(features: int) -> tuple[int, int]:
+    """Hidden FC widths of :class:`CcbvSTN` for ``features`` flattened inputs.
+
+    The public widths (4096, 1024) at its 9,216 features; for fewer features (a
+    smaller working resolution) both scale by ``features / 9216``, rounded, at least
+    8, so that each layer keeps the public network's reduction ratios (9216 : 4096 :
+    1024) instead of widening the features; never scaled up: beyond 256 × 144 the
+    first layer grows with the input and the rest stays the public size.
+
+    >>> ccbv_hidden(9216), ccbv_hidden(2048), ccbv_hidden(512), ccbv_hidden(20000)
+    ((4096, 1024), (910, 228), (228, 57), (4096, 1024))
+    """
+    scale = min(1.0, features / CCBV_FEATURES)
+    first, second = (max(8, round(width * scale)) for width in CCBV_HIDDEN)
+    return first, second
+
+
+class CcbvSTN(nn.Module):
+    """The CCBV re-implementation of Sha et al.'s STN (module docstring).
+
+    Args:
+        in_channels: input channels (4 + 4 for map ⊕ template).
+        image_size: ``(W, H)`` of the inputs (keyword only: the FC layers depend on
+            it); at least 16 × 16 (the pools divide by 16).
+        batch_norm: the blocks' BNs (on by default, as the public code).
+        widths: channels of the three blocks.
+        hidden: hidden FC widths (None: :func:`ccbv_hidden` of the feature count).
+
+    Shapes: (B, in_channels, H, W) → (B, 8) values of ``H̄``.
+    """
+
+    def __init__(self, in_channels: int = 8, *, image_size: tuple[int, int], batch_norm: bool = True,
+                 widths: tuple[int, int, int] = (16, 32, 64), hidden: tuple[int, int] | None = None):
+        super().__init__()
+        self.image_size = (int(image_size[0]), int(image_size[1]))
+        if min(self.image_size) < 16:
+            raise ValueError(f"CcbvSTN needs inputs of at least 16 × 16 (pools 4, 2, 2), got {self.image_size}")
+        channels = (in_channels, *widths)
+        self.features = nn.Sequential(*(CcbvBlock(channels[k], channels[k + 1], pool, batch_norm)
+                                        for k, pool in enumerate((4, 2, 2))))
+        count = _feature_count(self.features, in_channels, self.image_size)
+        self.head = _regression_head(count, hidden if hidden is not None else ccbv_hidden(count))
 
     def forward(self, x: Tensor) -> Tensor:
         x = _checked_input(x, self.image_size, type(self).__name__)
@@ -254,18 +355,19 @@ class ProposedSTN(nn.Module):
         width: channels of the first LocBlock (then 2·, 4·width).
         hidden: widths of the two hidden FC layers.
         heads: attention heads.
+        batch_norm: the LocBlocks' BNs (on by default; module docstring).
 
     Shapes: (B, in_channels, H, W) → (B, 8) values of ``H̄``.
     """
 
     def __init__(self, in_channels: int = 8, *, image_size: tuple[int, int], width: int = 32,
-                 hidden: tuple[int, int] = (256, 64), heads: int = 1):
+                 hidden: tuple[int, int] = (256, 64), heads: int = 1, batch_norm: bool = True):
         super().__init__()
         self.image_size = (int(image_size[0]), int(image_size[1]))
         self.features = nn.Sequential(
-            LocBlock(in_channels, width),
-            LocBlock(width, 2 * width),
-            LocBlock(2 * width, 4 * width),
+            LocBlock(in_channels, width, batch_norm),
+            LocBlock(width, 2 * width, batch_norm),
+            LocBlock(2 * width, 4 * width, batch_norm),
             SelfAttention2d(4 * width, heads),
         )
         self.head = _regression_head(_feature_count(self.features, in_channels, image_size), tuple(hidden))

@@ -224,3 +224,45 @@ def test_vocabularies_agree_with_the_models():
     assert config.STN_TEMPLATES == models.STN_TEMPLATES
     assert config.CLASS_REDUCTIONS == models.CLASS_REDUCTIONS
     assert config.TrainingSettings().class_reduction == models.CLASS_REDUCTION
+
+
+def test_ccbv_and_batch_norm_variants_fit_predict_and_label_their_rows(splits, settings):
+    from synthcal.estimators.paper import CcbvEstimator
+    from synthcal.eval.runs import estimator_label
+
+    ccbv = fit(splits, settings, name="synthcal.estimators.paper:CcbvEstimator", segmentation="ground-truth")
+    assert isinstance(ccbv, CcbvEstimator) and ccbv.label == "sha2020-ccbv"
+    assert np.isfinite(ccbv.predict_semantic(splits["test"].semantics)).all()
+    bn = fit(splits, {**settings, "batch_norm": True}, name="baseline", segmentation="ground-truth")
+    assert any(isinstance(m, torch.nn.BatchNorm2d) for m in bn._fitted["stn"].modules())
+    # The run's table label (fixed before any instance exists) is the instance's.
+    assert estimator_label("baseline", BaselineEstimator, {**settings, "batch_norm": True}) == bn.label == "sha2020+bn"
+    assert estimator_label("proposed", ProposedEstimator, {**settings, "batch_norm": False}) == "proposed+no-bn"
+    assert estimator_label("proposed", ProposedEstimator, {**settings, "batch_norm": True}) == "proposed"
+    assert estimator_label("x:Y", CcbvEstimator, settings) == "sha2020-ccbv"
+
+
+def test_retrieved_returns_dictionary_homographies_and_reuses_the_cached_siamese(splits, settings, tmp_path):
+    from synthcal.estimators.diagnostic import RetrievedEstimator
+
+    proposed = fit(splits, settings, segmentation="ground-truth", cache_dir=tmp_path)
+    assert proposed.trained_stages == ["siamese", "stn"]
+    files = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*.pt")}
+    retrieved = fit(splits, settings, name="synthcal.estimators.diagnostic:RetrievedEstimator",
+                    segmentation="ground-truth", cache_dir=tmp_path)
+    assert isinstance(retrieved, RetrievedEstimator) and retrieved.label == "retrieved"
+    assert retrieved.trained_stages == [] and retrieved.history == {}  # no Siamese trained, no STN
+    assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*.pt")} == files
+    for name, value in proposed._fitted["siamese"].state_dict().items():
+        torch.testing.assert_close(retrieved._fitted["siamese"].state_dict()[name], value, rtol=0, atol=0)
+
+    test = splits["test"]
+    H = retrieved.predict_semantic(test.semantics)
+    dictionary = np.asarray(splits["dictionary"].homographies)
+    # Each estimate is exactly the homography of the template the proposed model's Siamese retrieves.
+    f = proposed._fitted
+    with torch.no_grad():
+        embedded = f["siamese"](one_hot_maps(torch.from_numpy(reduce_class_maps(
+            np.asarray(test.semantics), f["work_size"]).numpy())))
+    index = nearest_embeddings(embedded, f["embedding"]).index.numpy()
+    np.testing.assert_array_equal(H, dictionary[index])

@@ -39,11 +39,11 @@ __all__ = [
 ]
 
 
-class _Strict(BaseModel):
+class StrictModel(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-class AxisRange(_Strict):
+class AxisRange(StrictModel):
     """An inclusive range ``start..stop`` in steps of ``step`` (SPEC §3)."""
 
     start: float
@@ -80,7 +80,7 @@ class AxisRange(_Strict):
         return values
 
 
-class GridConfig(_Strict):
+class GridConfig(StrictModel):
     """Camera grid; X/Y/Z left out means the scene's own camera position.
 
     With ``xy_relative`` the X and Y ranges are offsets from the scene's camera
@@ -145,7 +145,7 @@ class GridConfig(_Strict):
         return size
 
 
-class AppearanceConfig(_Strict):
+class AppearanceConfig(StrictModel):
     """Ranges of the per-sample photometric changes (see render.Appearance)."""
 
     brightness: float = Field(20.0, ge=0)
@@ -154,7 +154,7 @@ class AppearanceConfig(_Strict):
     noise_sigma: float = Field(3.0, ge=0)
 
 
-class SplitSizes(_Strict):
+class SplitSizes(StrictModel):
     """Sizes of the per-seed train / test / dictionary splits (SPEC §6)."""
 
     train: int = Field(3000, ge=1)
@@ -166,7 +166,7 @@ class SplitSizes(_Strict):
         return self.train + self.test + self.dictionary
 
 
-class OsmSourceConfig(_Strict):
+class OsmSourceConfig(StrictModel):
     """An OpenStreetMap scene's source (``osm:`` of a scene entry; SPEC §4).
 
     ``file`` (``.osm``, ``.osm.pbf``, ``.osm.bz2``) is relative to the YAML file;
@@ -201,7 +201,7 @@ class OsmSourceConfig(_Strict):
 _PNG_ONLY_KEYS = ("image", "semantic", "palette", "classes", "pixels_per_metre")
 
 
-class UserSceneConfig(_Strict):
+class UserSceneConfig(StrictModel):
     """A scene from two PNG files; paths are relative to the YAML file.
 
     Or, with ``osm:`` instead of ``image``/``semantic``/``palette``/``classes``/
@@ -269,7 +269,7 @@ class UserSceneConfig(_Strict):
         return data
 
 
-class DatasetConfig(_Strict):
+class DatasetConfig(StrictModel):
     """One dataset: a scene and its cameras (other keys override defaults).
 
     The cameras come from exactly one of ``grid:`` (sampled: ``pool_size`` of them)
@@ -323,7 +323,7 @@ class DatasetConfig(_Strict):
         return self
 
 
-class Defaults(_Strict):
+class Defaults(StrictModel):
     image_size: tuple[int, int] = (256, 144)
     focal_reference_width: int = Field(256, ge=1)
     shard_size: int = Field(64, ge=1)
@@ -341,7 +341,7 @@ class Defaults(_Strict):
         return size
 
 
-class TrainingSettings(_Strict):
+class TrainingSettings(StrictModel):
     """Network sizes and schedules of the bundled models (SPEC §7) under one profile.
 
     ``work_size`` is the ``(width, height)`` at which the networks see maps and
@@ -409,7 +409,7 @@ class TrainingProfile(TrainingSettings):
         return self.model_dump(mode="json", exclude={"segmentation", *unset})
 
 
-class ProfileConfig(_Strict):
+class ProfileConfig(StrictModel):
     """Overrides applied to every dataset: sizes for tests, laptops or the paper,
     the sizes of the bundled models (``training:``) and the dictionary ``bench``
     searches (``dictionary:``, for every dataset with an own pool) and which images
@@ -425,7 +425,7 @@ class ProfileConfig(_Strict):
     images: Images | None = None
 
 
-class Config(_Strict):
+class Config(StrictModel):
     version: int = 1
     defaults: Defaults = Defaults()
     grids: dict[str, GridConfig]

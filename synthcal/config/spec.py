@@ -13,13 +13,13 @@ import json
 import zlib
 from typing import Any
 
-from synthcal.config.schema import AppearanceConfig, GridConfig, SplitSizes, UserSceneConfig, _Strict
+from synthcal.config.schema import AppearanceConfig, GridConfig, SplitSizes, StrictModel, UserSceneConfig
 from synthcal.config.vocabulary import Images
 
 __all__ = ["DatasetSpec"]
 
 
-class DatasetSpec(_Strict):
+class DatasetSpec(StrictModel):
     """Everything that determines a generated store's arrays, and its splits.
 
     ``grid`` is None for a dataset of given ``poses``. ``mixed_sources`` lists the

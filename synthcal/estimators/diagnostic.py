@@ -29,10 +29,10 @@ import torch
 from synthcal.config import MATCHINGS, Matching, TrainingSettings
 from synthcal.estimators.paper import (
     PaperEstimator,
-    _choice,
-    _fixed_options,
-    _row_batches,
-    _streamed_match,
+    checked_choice,
+    fixed_options,
+    row_batches,
+    streamed_match,
 )
 from synthcal.estimators.protocol import SceneLike, SplitLike
 from synthcal.models import device_from_name, nearest_embeddings
@@ -41,7 +41,7 @@ from synthcal.training import MATCHING_SCORES, TrainingData
 __all__ = ["RetrievedEstimator", "OracleTemplateEstimator"]
 
 
-@_fixed_options("model", "training", "loss")
+@fixed_options("model", "training", "loss")
 class RetrievedEstimator(PaperEstimator):
     """The Siamese's retrieved template's homography, no STN (bundled name ``retrieved``).
 
@@ -102,7 +102,7 @@ class OracleTemplateEstimator:
 
     def __init__(self, matching: Matching = "top-mse", settings: TrainingSettings | dict[str, Any] | None = None,
                  device: str = "auto") -> None:
-        self.matching: Matching = _choice("matching", matching, MATCHINGS)
+        self.matching: Matching = checked_choice("matching", matching, MATCHINGS)
         if isinstance(settings, TrainingSettings):
             settings = settings.model_dump()
         self.settings = TrainingSettings(**(settings or {}))
@@ -125,9 +125,9 @@ class OracleTemplateEstimator:
             raise RuntimeError("OracleTemplateEstimator: call fit() first")
         score, reduction = MATCHING_SCORES[self.matching], self.settings.class_reduction
         out = []
-        for _, rows in _row_batches(semantics, 256):
+        for _, rows in row_batches(semantics, 256):
             # The dictionary is read a block at a time (a lazy pool dictionary is never whole at full size).
-            index = _streamed_match(torch.from_numpy(rows).to(self.device), self.templates, score, reduction,
+            index = streamed_match(torch.from_numpy(rows).to(self.device), self.templates, score, reduction,
                                     self.device)
             out.append(self.homographies[index.numpy()])
         return np.concatenate(out) if out else np.empty((0, 3, 3))

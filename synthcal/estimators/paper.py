@@ -162,7 +162,7 @@ _Module = TypeVar("_Module", bound=nn.Module)
 _Estimator = TypeVar("_Estimator", bound="PaperEstimator")
 
 
-def _choice(name: str, value: str, allowed: Sequence[_Option]) -> _Option:
+def checked_choice(name: str, value: str, allowed: Sequence[_Option]) -> _Option:
     """``value`` as one of ``allowed`` (a vocabulary of :mod:`synthcal.config`), or a ValueError naming it."""
     for option in allowed:
         if value == option:
@@ -175,18 +175,18 @@ def _choice(name: str, value: str, allowed: Sequence[_Option]) -> _Option:
 _TEMPLATE_BATCH = 512
 
 
-def _row_batches(rows: Any, size: int) -> Iterator[tuple[int, np.ndarray]]:
+def row_batches(rows: Any, size: int) -> Iterator[tuple[int, np.ndarray]]:
     """``(start, rows[start:start + size])`` of any array-like with ``len`` and slicing (a lazy one reads them)."""
     for start in range(0, len(rows), size):
         yield start, np.asarray(rows[start:start + size])
 
 
-def _streamed_match(queries: Tensor, templates: Any, score: str, reduction: ClassReduction,
+def streamed_match(queries: Tensor, templates: Any, score: str, reduction: ClassReduction,
                     device: torch.device) -> Tensor:
     """(Q,) ground-truth template index of (Q, H, W) class-id ``queries`` among (T, H, W) ``templates``
     read in batches: the same as one :func:`match_ground_truth` over all (:func:`merge_matches`)."""
     best = None
-    for start, rows in _row_batches(templates, _TEMPLATE_BATCH):
+    for start, rows in row_batches(templates, _TEMPLATE_BATCH):
         part = match_ground_truth(queries, torch.from_numpy(rows).to(device), score, class_reduction=reduction)
         best = merge_matches(best, part, start)
     if best is None:
@@ -219,11 +219,11 @@ class PaperEstimator:
                  settings: TrainingSettings | dict[str, Any] | None = None, device: str = "auto",
                  cache_dir: str | Path | None = None, seed: int = 0, progress: bool = False) -> None:
         # Checked at run time too: values come from the command line and configs.
-        self.model: Model = _choice("model", model, MODELS)
-        self.training: Training = _choice("training", training, TRAININGS)
-        self.loss: Loss = _choice("loss", loss, LOSSES)
-        self.matching: Matching = _choice("matching", matching, MATCHINGS)
-        self.segmentation: Segmentation = _choice("segmentation", segmentation, SEGMENTATIONS)
+        self.model: Model = checked_choice("model", model, MODELS)
+        self.training: Training = checked_choice("training", training, TRAININGS)
+        self.loss: Loss = checked_choice("loss", loss, LOSSES)
+        self.matching: Matching = checked_choice("matching", matching, MATCHINGS)
+        self.segmentation: Segmentation = checked_choice("segmentation", segmentation, SEGMENTATIONS)
         if isinstance(settings, TrainingSettings):
             settings = settings.model_dump()
         self.settings = TrainingSettings(**(settings or {}))
@@ -285,9 +285,9 @@ class PaperEstimator:
                 queries, torch.from_numpy(full).to(self.device), score, class_reduction=reduction).index.cpu())
         else:  # lazy (a pool dictionary): streamed, reduced batch by batch; never whole at full size
             templates = torch.cat([reduce_class_maps(rows, work_size)
-                                   for _, rows in _row_batches(dictionary.semantics, _TEMPLATE_BATCH)])
+                                   for _, rows in row_batches(dictionary.semantics, _TEMPLATE_BATCH)])
             keys["dictionary"] = digest("streamed", templates, homographies, full_size)
-            match = self._match(semantics, keys, lambda queries, score, reduction: _streamed_match(
+            match = self._match(semantics, keys, lambda queries, score, reduction: streamed_match(
                 queries, dictionary.semantics, score, reduction, self.device))
         keys["match"] = digest(match)
         scene_map, scene_frame = reduce_scene(scene.semantic, self.settings.scene_downsample)
@@ -438,7 +438,7 @@ class PaperEstimator:
         return np.concatenate(out) if out else np.empty((0, 3, 3))
 
 
-def _fixed_options(*names: str) -> Callable[[type[_Estimator]], type[_Estimator]]:
+def fixed_options(*names: str) -> Callable[[type[_Estimator]], type[_Estimator]]:
     """Give a subclass that fixes ``names`` the parent's signature without them.
 
     Its ``__init__(**options)`` forwards everything; the explicit signature lets
@@ -453,7 +453,7 @@ def _fixed_options(*names: str) -> Callable[[type[_Estimator]], type[_Estimator]
     return fix
 
 
-@_fixed_options("model")
+@fixed_options("model")
 class ProposedEstimator(PaperEstimator):
     """The paper's proposed model (bundled name ``proposed``)."""
 
@@ -464,7 +464,7 @@ class ProposedEstimator(PaperEstimator):
         super().__init__(model="proposed", **options)
 
 
-@_fixed_options("model")
+@fixed_options("model")
 class BaselineEstimator(PaperEstimator):
     """Sha et al.'s baseline STN, as the paper describes it, in the same pipeline (bundled names
     ``baseline``, ``sha2020``)."""
@@ -476,7 +476,7 @@ class BaselineEstimator(PaperEstimator):
         super().__init__(model="baseline", **options)
 
 
-@_fixed_options("model")
+@fixed_options("model")
 class CcbvEstimator(PaperEstimator):
     """Sha et al.'s STN as the public CCBV re-implementation builds it, in the same pipeline
     (bundled name ``sha2020-ccbv``; :class:`synthcal.models.CcbvSTN`)."""

@@ -18,7 +18,7 @@ import pytest
 from synthcal.cli import main
 from synthcal.data import load_split
 from synthcal.generate.splits import draw_splits
-from synthcal.store import MANIFEST_FILE, CorruptStore, open_store, read_manifest, verify_store
+from synthcal.store import MANIFEST_FILE, CorruptStore, read_manifest, verify_store, write_manifest
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "datasets.yaml"
@@ -165,8 +165,6 @@ def test_a_damaged_manifest_is_one_line(store, capsys):
 
 
 def test_a_killed_split_drawing_is_finished_by_the_next(store, capsys):
-    from synthcal.store import write_manifest
-
     write_manifest(store, "writing", read_manifest(store).files)  # as a drawer killed after begin() leaves it
     assert_one_line(*run_cli(capsys, "info", str(store)), f"`synthcal split {store}` finishes the job")
     assert main(["split", str(store), "--seeds", "0"]) == 0

@@ -195,7 +195,7 @@ def _cmd_split(args: argparse.Namespace) -> None:
     from synthcal.store import open_store
     from synthcal.store.splits import store_spec
 
-    spec = store_spec(open_store(args.store), args.store)
+    spec = store_spec(open_store(args.store, writer=True), args.store)  # a writer: it reseals a killed one's work
     overrides = {name: getattr(args, name) for name in ("train", "test", "dictionary")}
     for name, value in overrides.items():  # here, so that the message names the flag
         if value is not None and value < 1:

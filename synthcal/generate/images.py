@@ -10,10 +10,10 @@ render (``images: all``) gives.
 Order, so that a killed run resumes: the ``images`` attribute's state becomes
 ``rendering``; then shard by shard the ``image`` shard file is rewritten whole
 (the images it held, read back, plus the new ones; atomically) and then
-``image_rendered`` marks the new samples; last, the manifest's ``image`` entry is
-recomputed from the files and the state returns to ``complete``. A rerun renders
-what ``image_rendered`` does not mark (at most one shard again) and finishes the
-manifest. Images that no split uses any more (a seed redrawn with other sizes) stay.
+``image_rendered`` marks the new samples; last, the state returns to ``complete``
+and the caller's :func:`synthcal.store.resealing` block reseals the manifest (whose
+``begin`` marks it ``writing`` before the first byte changes). A rerun renders what
+``image_rendered`` does not mark (at most one shard again) and reseals. Images that no split uses any more (a seed redrawn with other sizes) stay.
 """
 
 from __future__ import annotations
@@ -84,10 +84,13 @@ def _render_shard(layout: ShardLayout, image: zarr.Array, shard: int, new: np.nd
     write_shard(layout, shard, samples)
 
 
-def render_missing_images(store: str | Path, wanted: np.ndarray | None = None) -> int:
+def render_missing_images(store: str | Path, wanted: np.ndarray | None = None,
+                          begin: Callable[[], None] | None = None) -> int:
     """Render the images of ``wanted`` (default: :func:`used_indices`) that the store lacks.
 
-    The caller holds the store's lock. An ``images: all`` store is left alone.
+    The caller holds the store's lock and reseals its manifest afterwards
+    (:func:`synthcal.store.resealing`, whose ``begin`` is called before anything is
+    written). An ``images: all`` store is left alone.
 
     Returns:
         the number of images rendered.
@@ -102,6 +105,8 @@ def render_missing_images(store: str | Path, wanted: np.ndarray | None = None) -
     if not len(missing) and not images_rendering(group.attrs):
         return 0
     spec = store_spec(group, store)
+    if begin is not None:
+        begin()
     group.attrs[IMAGES_ATTR] = images_attribute(int(mask.sum()), "rendering")
     image, presence = array_at(group, "image"), array_at(group, PRESENCE_ARRAY)
     homography = array_at(group, "homography")
@@ -118,7 +123,8 @@ def render_missing_images(store: str | Path, wanted: np.ndarray | None = None) -
         _render_shard(layout, image, shard, new, held, render)
         mask[new] = True
         presence[:] = mask.astype(np.uint8)
-    recorded = dict(group.attrs["manifest"])  # type: ignore[arg-type]  # JSON object
-    recorded["image"] = manifest(store, ("image",))["image"]
-    group.attrs.update({"manifest": recorded, IMAGES_ATTR: images_attribute(int(mask.sum()))})
+    updates = {IMAGES_ATTR: images_attribute(int(mask.sum()))}
+    if isinstance(recorded := group.attrs.get("manifest"), dict):  # synthcal-store/2 lists its image files there
+        updates["manifest"] = {**recorded, "image": manifest(store, ("image",))["image"]}
+    group.attrs.update(updates)
     return len(missing)

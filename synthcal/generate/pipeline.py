@@ -8,8 +8,8 @@ configuration alone, never on the number of workers or the order shards finish i
 Resuming: the store grows under ``NAME.zarr.partial``; each finished shard leaves a
 marker in ``.NAME.zarr.progress/``; a rerun with the same configuration renders only
 the shards without a marker. The last steps sweep away temporary files a killed
-writer left, record the manifest (:func:`synthcal.store.manifest`), mark the store
-complete and rename it to ``NAME.zarr``; any later run removes a progress folder
+writer left, mark the store complete, record the sealed manifest of every file
+(:func:`synthcal.store.write_manifest`) and rename it to ``NAME.zarr``; any later run removes a progress folder
 left behind. The whole run holds the store's lock (:func:`synthcal.store.store_lock`),
 so a second ``generate`` of the same store fails at once and touches nothing.
 
@@ -51,9 +51,9 @@ from synthcal.store import (
     FORMAT_VERSION,
     create_store,
     image_layouts,
-    manifest,
     software_versions,
     store_lock,
+    write_manifest,
     write_samples,
 )
 from synthcal.store.images import IMAGES_ATTR, images_attribute
@@ -448,8 +448,9 @@ def _generate_locked(spec: DatasetSpec, scene: Scene, final: Path, workers: int,
     # the lock none is at work, so whatever matches is debris.
     remove_temporaries(partial)
     group = zarr.open_group(zarr.storage.LocalStore(partial), mode="r+", zarr_format=3)
-    group.attrs.update({"manifest": manifest(partial), "foreground": _foreground(tasks, spec), "complete": True})
+    group.attrs.update({"foreground": _foreground(tasks, spec), "complete": True})
     remove_temporaries(partial)  # zarr writes zarr.json through a temporary too
+    write_manifest(partial)  # last: it lists every file, the root zarr.json just written included
     os.replace(partial, final)
     shutil.rmtree(progress_dir, ignore_errors=True)
     return final

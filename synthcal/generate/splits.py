@@ -17,7 +17,10 @@ homography maps **its source scene's** bird's-eye frame to the image — not the
 target's scene (``homography_frame`` says so in the store).
 
 **Writing.** Each seed's group is built under ``<store>/.splits-tmp-<random>/`` and
-moved into place with ``os.replace``, so ``splits/seed-<s>`` is always whole. A
+moved into place with ``os.replace``, so ``splits/seed-<s>`` is always whole; the
+store's manifest is marked ``writing`` before the first change and resealed from the
+files at the end (:func:`synthcal.store.resealing`), so whatever arrays a seed holds
+are under it. A
 seed whose recorded recipe (pool, sizes, sources) equals the request is left alone,
 so redrawing is idempotent; a changed recipe replaces the group (the old one is
 moved aside first, then deleted), with a warning (:class:`SplitsResized`) when the
@@ -46,7 +49,7 @@ import os
 import shutil
 import tempfile
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
@@ -56,7 +59,7 @@ import zarr
 
 from synthcal.config import SplitSizes
 from synthcal.generate.images import mixed_uses, render_missing_images
-from synthcal.store import CHECKSUMMED_INDEX, image_mode, store_lock
+from synthcal.store import CHECKSUMMED_INDEX, image_mode, resealing, store_lock
 from synthcal.store.format import open_store
 from synthcal.store.splits import (
     LAYOUT_VERSION,
@@ -265,17 +268,17 @@ def draw_splits(
         StoreLocked: another process is writing the store.
     """
     store = Path(store)
-    open_store(store)  # a missing store is named as such, before any lock file is made beside it
-    with store_lock(store):
+    open_store(store, writer=True)  # a missing store is named as such, before any lock file is made beside it
+    with store_lock(store), resealing(store) as begin:
         for scratch in store.glob(".splits-tmp-*"):  # a killed drawer's; none is at work under the lock
             shutil.rmtree(scratch, ignore_errors=True)
-        return _draw_locked(store, seeds, sizes, sources, mixed)
+        return _draw_locked(store, seeds, sizes, sources, mixed, begin)
 
 
 def _draw_locked(store: Path, seeds: Sequence[int] | None, sizes: SplitSizes | None,
-                 sources: Sequence[str] | None, mixed: bool | None) -> DrawResult:
-    """:func:`draw_splits`' work, under the store's lock."""
-    group = open_store(store)
+                 sources: Sequence[str] | None, mixed: bool | None, begin: Callable[[], None]) -> DrawResult:
+    """:func:`draw_splits`' work, under the store's lock; ``begin`` before the first write (:func:`resealing`)."""
+    group = open_store(store, writer=True)
     spec = store_spec(group, store)
     seeds = tuple(spec.split_seeds if seeds is None else seeds)
     sizes = sizes or spec.splits
@@ -291,7 +294,6 @@ def _draw_locked(store: Path, seeds: Sequence[int] | None, sizes: SplitSizes | N
                          f"do not fit: {exc}") from None
     note, hashes, mixed_arrays = _plan_mixed(store, attrs, sources, mixed, sizes.dictionary, seeds)
 
-    _ensure_splits_group(store)
     drawn, unchanged = [], []
     for seed in seeds:
         has_mixed = seed in mixed_arrays
@@ -307,26 +309,29 @@ def _draw_locked(store: Path, seeds: Sequence[int] | None, sizes: SplitSizes | N
             unchanged.append(seed)
             continue
         _warn_if_resized(store, seed, recorded, recipe)
+        begin()
+        _ensure_splits_group(store)
         mixed_part = (*mixed_arrays[seed], _mixed_attrs(sources, hashes)) if has_mixed else None
         _write_seed(store, seed, recipe, sets[seed], mixed_part)
         drawn.append(seed)
-    return DrawResult(store, tuple(drawn), tuple(unchanged), note, _render_used(store))
+    return DrawResult(store, tuple(drawn), tuple(unchanged), note, _render_used(store, begin))
 
 
-def _render_used(store: Path) -> int:
+def _render_used(store: Path, begin: Callable[[], None]) -> int:
     """Render the images the drawn splits use and an ``images: splits`` store lacks (:mod:`synthcal.generate.images`).
 
-    The store's own splits under its lock (held by the caller); a mixed dictionary's
-    templates in their source stores, each under its own lock.
+    The store's own splits under its lock (held by the caller, with ``begin`` of its
+    :func:`resealing` block); a mixed dictionary's templates in their source stores,
+    each under its own lock, each resealed.
     """
-    count = render_missing_images(store)
+    count = render_missing_images(store, begin=begin)
     group = zarr.open_group(zarr.storage.LocalStore(store, read_only=True), mode="r", zarr_format=3)
     for source, indices in mixed_uses(store, group).items():
         if source.resolve() == store.resolve() or not (source / "zarr.json").is_file():
             continue
         if image_mode(zarr.open_group(zarr.storage.LocalStore(source, read_only=True), mode="r").attrs) == "splits":
-            with store_lock(source):
-                count += render_missing_images(source, indices)
+            with store_lock(source), resealing(source) as begin_source:
+                count += render_missing_images(source, indices, begin_source)
     return count
 
 

@@ -5,6 +5,7 @@
   as Zarr's sharding codec lays them out;
 * :mod:`synthcal.store.images` — which RGB images a store holds (``images: all | splits``);
 * :mod:`synthcal.store.lock` — one writer per store (an exclusive ``flock``);
+* :mod:`synthcal.store.manifest` — the sealed list of every file of a store, its size and CRC32C;
 * :mod:`synthcal.store.verify` — reading a whole store back, checksums and all;
 * :mod:`synthcal.store.splits` — reading the per-seed splits a store holds (drawing
   them is generation's job, :mod:`synthcal.generate.splits`).
@@ -26,6 +27,7 @@ from synthcal.store.format import (
     group_at,
     image_layouts,
     manifest,
+    open_group,
     open_store,
     read_samples,
     software_versions,
@@ -33,6 +35,7 @@ from synthcal.store.format import (
 )
 from synthcal.store.images import ImagesNotRendered, check_rendered, image_mode, rendered_mask
 from synthcal.store.lock import lock_path, store_lock
+from synthcal.store.manifest import MANIFEST_FILE, read_manifest, resealing, write_manifest
 from synthcal.store.splits import (
     SPLIT_NAMES,
     MixedDictionary,
@@ -60,10 +63,15 @@ __all__ = [
     "lock_path",
     "store_lock",
     "manifest",
+    "MANIFEST_FILE",
+    "read_manifest",
+    "resealing",
+    "write_manifest",
     "array_at",
     "attributes",
     "create_store",
     "group_at",
+    "open_group",
     "image_layouts",
     "open_store",
     "read_samples",

@@ -18,22 +18,25 @@ resolved configuration.
 
 Integrity: every array's inner codec chain ends in Zarr v3's ``crc32c`` codec, so
 each chunk carries its CRC32C (checked by :mod:`synthcal.store.shards`' reader and
-by zarr-python alike), and each shard's index carries its own. At completion the
-store records a ``manifest`` attribute: per array (:data:`MANIFEST_ARRAYS`) its
-number of shards and, per shard file present, its size and CRC32C.
-:func:`open_store` checks that every listed file is there with its size, so a lost
-or truncated shard is an error naming the file rather than zeros;
-:mod:`synthcal.store.verify` checks everything. Stores of format
-``synthcal-store/1`` (no chunk checksums, no manifest) still read, with a
-:class:`LegacyStoreWarning`.
+by zarr-python alike), and each shard's index carries its own. A complete store has
+a sealed manifest file, ``manifest.json`` (:mod:`synthcal.store.manifest`): every
+file of the store — shard files, every ``zarr.json``, splits and mixed dictionaries,
+whatever is added later — with its size and CRC32C, the manifest itself under a
+checksum of its content. :func:`open_store` checks it before Zarr parses anything:
+every listed file present with its size, the metadata documents and everything
+under ``splits/`` by CRC32C, no unlisted file under ``splits/``; a mismatch is a
+:class:`CorruptStore` naming the file. :mod:`synthcal.store.verify` checks every
+byte. Older formats still read, with a :class:`LegacyStoreWarning`:
+``synthcal-store/2`` (its ``manifest`` attribute lists only the shard files of
+:data:`MANIFEST_ARRAYS`, checked as before) and ``synthcal-store/1`` (no chunk
+checksums, no manifest).
 
 Images only where used (``images: splits``, :mod:`synthcal.store.images`): the
 ``image`` array then holds chunks only for the samples some drawn split uses; the
 ``images`` attribute (``mode``, ``rendered``, ``state``) and the small per-sample
 array ``image_rendered`` say which, and reading another sample's image raises
-:class:`~synthcal.store.images.ImagesNotRendered`. The manifest covers the ``image``
-files present; drawing splits that render more images rewrites those shard files and
-then the manifest's ``image`` entry. A store without the ``images`` attribute holds
+:class:`~synthcal.store.images.ImagesNotRendered`. Drawing splits that render more
+images rewrites those shard files, then reseals the manifest. A store without the ``images`` attribute holds
 every image (``images: all``, the default, byte-identical to stores made before).
 
 Atomicity: every file is written under a temporary name and renamed (by Zarr's
@@ -51,23 +54,25 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import google_crc32c
 import numpy as np
 import zarr
 from zarr.codecs import BloscCodec, Crc32cCodec, ZstdCodec
 
 from synthcal.store.errors import CorruptStore, StoreError
 from synthcal.store.images import PRESENCE_ARRAY, check_rendered, images_rendering
+from synthcal.store.manifest import MANIFEST_FILE, check_files, file_crc32c, read_manifest
 from synthcal.store.shards import ShardLayout, read_rows, shard_layout, write_shard
 
 __all__ = [
     "FORMAT_VERSION",
     "LEGACY_FORMAT_VERSIONS",
+    "LEGACY_LACKS",
     "CAMERA_FIELDS",
     "MANIFEST_ARRAYS",
     "CHECKSUMMED",
     "CHECKSUMMED_INDEX",
     "file_crc32c",
+    "open_group",
     "StoreError",
     "CorruptStore",
     "LegacyStoreWarning",
@@ -84,11 +89,14 @@ __all__ = [
     "attributes",
 ]
 
-FORMAT_VERSION = "synthcal-store/2"
-# Older formats still read: /1 lacks chunk checksums and the manifest.
-LEGACY_FORMAT_VERSIONS = ("synthcal-store/1",)
+FORMAT_VERSION = "synthcal-store/3"
+# Older formats still read: /2's manifest attribute covers only shard files, /1 has none and no chunk checksums.
+LEGACY_FORMAT_VERSIONS = ("synthcal-store/1", "synthcal-store/2")
+# What each older format lacks, for the warning on opening it and verify's note.
+LEGACY_LACKS = {"synthcal-store/1": "has no chunk checksums and no manifest",
+                "synthcal-store/2": "has a manifest of its shard files only (metadata and splits unchecked)"}
 CAMERA_FIELDS = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
-# The arrays of a complete store that its manifest lists (splits/ are drawn later).
+# The arrays of a complete store that a synthcal-store/2 manifest attribute lists.
 MANIFEST_ARRAYS = ("image", "semantic", "homography", *(f"camera/{name}" for name in CAMERA_FIELDS),
                    "camera/grid_index", "scene/image", "scene/semantic")
 # LZ4 rather than Zstd: a third larger, but it both encodes and decodes several times
@@ -103,7 +111,7 @@ CHECKSUMMED_INDEX = (ZstdCodec(level=0), _CHECKSUM)
 
 
 class LegacyStoreWarning(UserWarning):
-    """A store of an older format: it reads, but lacks chunk checksums and a manifest."""
+    """A store of an older format: it reads, but damage to some of its files may go unnoticed."""
 
 
 def software_versions() -> dict[str, str]:
@@ -179,17 +187,32 @@ def create_store(
     return group
 
 
+def _node(group: zarr.Group, key: str) -> zarr.Array | zarr.Group:
+    """``group[key]``; a node that is missing or whose metadata Zarr cannot parse is damage, named."""
+    try:
+        return group[key]
+    except KeyError:
+        raise CorruptStore(f"{group.store_path}/{key}: missing (its zarr.json is gone)") from None
+    except (ValueError, TypeError) as exc:  # JSONDecodeError, zarr's MetadataValidationError
+        reason = " ".join(str(exc).split())
+        raise CorruptStore(f"{group.store_path}/{key}/zarr.json: not valid Zarr metadata ({reason})") from None
+
+
 def array_at(group: zarr.Group, key: str) -> zarr.Array:
-    """``group[key]``, which must be an array (Zarr types it as array or group)."""
-    node = group[key]
+    """``group[key]``, which must be an array (Zarr types it as array or group).
+
+    Raises:
+        StoreError: a group there; CorruptStore: nothing there, or damaged metadata.
+    """
+    node = _node(group, key)
     if not isinstance(node, zarr.Array):
         raise StoreError(f"{group.store_path}/{key}: a group where an array is expected")
     return node
 
 
 def group_at(group: zarr.Group, key: str) -> zarr.Group:
-    """``group[key]``, which must be a group."""
-    node = group[key]
+    """``group[key]``, which must be a group (errors as :func:`array_at`'s)."""
+    node = _node(group, key)
     if not isinstance(node, zarr.Group):
         raise StoreError(f"{group.store_path}/{key}: an array where a group is expected")
     return node
@@ -202,7 +225,7 @@ def attributes(node: zarr.Group | zarr.Array) -> dict[str, Any]:
 
 def image_layouts(path: Path) -> dict[str, ShardLayout]:
     """Shard layouts of the ``image`` and ``semantic`` arrays, for :func:`write_samples`."""
-    group = zarr.open_group(zarr.storage.LocalStore(path), mode="r", zarr_format=3)
+    group = open_group(path)
     return {name: shard_layout(array_at(group, name)) for name in ("image", "semantic")}
 
 
@@ -219,23 +242,17 @@ def _chunk_files(folder: Path) -> list[Path]:
         if root.is_dir() else []
 
 
-def file_crc32c(path: Path) -> str:
-    """CRC32C of a whole file, 8 hex digits."""
-    checksum = google_crc32c.Checksum()
-    with open(path, "rb") as file:
-        while block := file.read(1 << 22):
-            checksum.update(block)
-    return checksum.hexdigest().decode()
-
-
 def manifest(path: Path, names: tuple[str, ...] = MANIFEST_ARRAYS) -> dict[str, Any]:
-    """The manifest of a store's :data:`MANIFEST_ARRAYS` (or of the arrays ``names``), from the files on disk.
+    """A ``synthcal-store/2`` ``manifest`` attribute, of :data:`MANIFEST_ARRAYS` (or the arrays ``names``).
+
+    Kept to update the attribute of such a store when images are rendered into it;
+    stores of the current format record :mod:`synthcal.store.manifest`'s file instead.
 
     Returns:
         ``{array: {"shards": n, "files": {"c/0/0/0/0": {"size": bytes, "crc32c": "8 hex"}}}}``;
         ``shards`` counts the shard grid's cells (a cell holding only fill values has no file).
     """
-    group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r", zarr_format=3)
+    group = open_group(path)
     out: dict[str, Any] = {}
     for name in names:
         array = array_at(group, name)
@@ -249,7 +266,7 @@ def manifest(path: Path, names: tuple[str, ...] = MANIFEST_ARRAYS) -> dict[str, 
 
 
 def check_manifest(path: Path, recorded: dict[str, Any], checksums: bool = False) -> list[str]:
-    """What differs between a store's files and its manifest, one message per file (empty: all well).
+    """What differs between a ``synthcal-store/2`` store's files and its ``manifest`` attribute (empty: all well).
 
     Args:
         path: the store.
@@ -262,6 +279,8 @@ def check_manifest(path: Path, recorded: dict[str, Any], checksums: bool = False
         if not isinstance(entry, dict) or not isinstance(entry.get("files"), dict):
             problems.append(f"{path / name}: missing from the store's manifest")
             continue
+        if not (path / name / "zarr.json").is_file():
+            problems.append(f"{path / name / 'zarr.json'}: missing (the array's metadata)")
         for key, expected in entry["files"].items():
             file = path / name / key
             try:
@@ -281,46 +300,92 @@ def check_manifest(path: Path, recorded: dict[str, Any], checksums: bool = False
     return problems
 
 
-def open_store(path: str | Path, allow_incomplete: bool = False) -> zarr.Group:
+def open_group(path: Path, mode: str = "r") -> zarr.Group:
+    """The Zarr group of a local store; metadata that Zarr cannot parse is an error naming the store.
+
+    Raises:
+        CorruptStore: the root ``zarr.json`` is not valid group metadata (e.g. truncated).
+    """
+    try:
+        return zarr.open_group(zarr.storage.LocalStore(path, read_only=mode == "r"), mode=mode,  # type: ignore[arg-type]
+                               zarr_format=3)
+    except (ValueError, KeyError, TypeError) as exc:  # JSONDecodeError, zarr's MetadataValidationError, a lost key
+        reason = " ".join(str(exc).split())
+        raise CorruptStore(f"{path / 'zarr.json'}: not valid Zarr group metadata ({type(exc).__name__}: "
+                           f"{reason})") from None
+
+
+def _raise_problems(path: Path, problems: list[str]) -> None:
+    """One line for what the cheap check found (the first few files; ``verify`` lists them all)."""
+    if problems:
+        more = f"; and {len(problems) - 3} more" if len(problems) > 3 else ""
+        raise CorruptStore("; ".join(problems[:3]) + more + f" (run `synthcal verify {path}`)")
+
+
+def _check_sealed(path: Path, writer: bool) -> None:
+    """The cheap check of a store's manifest file (:func:`synthcal.store.manifest.check_files`)."""
+    recorded = read_manifest(path)
+    if recorded.state == "writing":
+        if writer:  # a killed writer's: this one reseals it
+            return
+        raise CorruptStore(f"{path}: a writer (split drawing or image rendering) is at work or was stopped before "
+                           f"it finished, so its files are not sealed; once none runs, `synthcal split {path}` "
+                           f"finishes the job")
+    _raise_problems(path, check_files(path, recorded))
+
+
+def open_store(path: str | Path, allow_incomplete: bool = False, writer: bool = False) -> zarr.Group:
     """Open a generated store for reading.
 
-    A complete store's shard files are checked against its manifest (present, of
-    the recorded size: one ``stat`` each); :mod:`synthcal.store.verify` checks
-    checksums too.
+    A complete store is first checked against its manifest file, before Zarr parses
+    anything (module docstring, *Integrity*): one ``stat`` per file, a CRC32C of the
+    metadata documents and splits; :mod:`synthcal.store.verify` checks every byte.
+
+    Args:
+        path: the store.
+        allow_incomplete: open a store whose generation has not finished.
+        writer: the caller holds the store's lock and reseals it afterwards
+            (:func:`synthcal.store.manifest.resealing`): a manifest left ``writing`` by
+            a killed writer is accepted.
 
     Raises:
         StoreError: no such store, not a synthcal store, or (unless
             ``allow_incomplete``) a store whose generation has not finished.
-        CorruptStore: a complete store with a shard file missing or of another
-            size than its manifest records, or without a manifest; names the file.
+        CorruptStore: a file missing, of another size or checksum than the manifest
+            records or not listed in it, a damaged or missing manifest, metadata Zarr
+            cannot parse; names the file.
 
     Warns:
-        LegacyStoreWarning: a store of format ``synthcal-store/1`` (no chunk checksums).
+        LegacyStoreWarning: a store of an older format (:data:`LEGACY_FORMAT_VERSIONS`).
     """
     path = Path(path)
-    if not (path / "zarr.json").is_file():
+    sealed = (path / MANIFEST_FILE).is_file()
+    if not sealed and not (path / "zarr.json").is_file():
         partial = path.with_name(path.name + ".partial")
         hint = f"; an unfinished run is at {partial}: rerun `synthcal generate` to resume it" if partial.exists() else ""
         raise StoreError(f"{path}: no synthcal store here{hint}")
-    group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r", zarr_format=3)
+    if sealed:
+        _check_sealed(path, writer)
+    group = open_group(path)
     version = group.attrs.get("format_version")
     if version in LEGACY_FORMAT_VERSIONS:
-        warnings.warn(f"{path}: format_version {version!r} lacks chunk checksums and a manifest: damage may go "
+        warnings.warn(f"{path}: format_version {version!r} {LEGACY_LACKS[str(version)]}: damage may go "
                       f"unnoticed; regenerate it to get format {FORMAT_VERSION!r}", LegacyStoreWarning, stacklevel=2)
     elif version != FORMAT_VERSION:
         raise StoreError(f"{path}: format_version is {version!r}, expected {FORMAT_VERSION!r}")
     complete = bool(group.attrs.get("complete", False))
     if not allow_incomplete and not complete:
         raise StoreError(f"{path}: the store is incomplete (generation did not finish)")
-    if complete and version == FORMAT_VERSION:
+    if complete and version == FORMAT_VERSION and not sealed:
+        raise CorruptStore(f"{path / MANIFEST_FILE}: missing (a complete store of format {FORMAT_VERSION} has one)")
+    if complete and version == "synthcal-store/2":
         recorded = group.attrs.get("manifest")
         if not isinstance(recorded, dict):
             raise CorruptStore(f"{path}/zarr.json: a complete store without its 'manifest' attribute")
         problems = check_manifest(path, recorded)
         if images_rendering(group.attrs):  # images being added (or a renderer killed): it rewrites their entry
             problems = [p for p in problems if not p.startswith(f"{path / 'image'}/")]
-        if problems:
-            raise CorruptStore("; ".join(problems) + f" (run `synthcal verify {path}`)")
+        _raise_problems(path, problems)
     return group
 
 

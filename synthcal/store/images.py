@@ -11,8 +11,9 @@ made before the option existed):
 
 * the group attribute ``images``: ``{"mode": "splits", "rendered": <count>,
   "state": "complete" | "rendering"}`` (``rendering`` while images are being
-  added: :func:`synthcal.store.open_store` then does not hold the ``image``
-  array's files to the manifest, which the renderer rewrites when it finishes);
+  added; the store's manifest says ``writing`` meanwhile, and the renderer reseals
+  it when it finishes — a ``synthcal-store/2`` store's manifest attribute has its
+  ``image`` entry rewritten instead, and is not held to it while ``rendering``);
 * the array ``image_rendered``: (N,) uint8, 1 where sample ``i``'s image was
   rendered — one chunk, ending in the ``crc32c`` codec like every array. A
   rendered image that happens to be all black is stored as no chunk at all

@@ -1,11 +1,15 @@
 """``synthcal verify``: read a whole store back and report every damaged file.
 
-Checks, in order: that it is a complete synthcal store; its manifest (every shard
-file present, of the recorded size and CRC32C, and no file it does not list); then
-every array (splits included): each shard's index checksum, each chunk's checksum,
-and that every chunk decodes. Arrays of the store's own layout are read by
-:mod:`synthcal.store.shards` shard by shard; any other array (``scene/``,
-``splits/``) through zarr-python, which checks the ``crc32c`` codec itself.
+Checks, in order: that it is a complete synthcal store; its manifest file
+(:mod:`synthcal.store.manifest`: its seal, then every file of the store present,
+of the recorded size and CRC32C, and no file it does not list — metadata, splits
+and mixed dictionaries included); then every array found on disk (each
+``zarr.json``), splits included: its metadata parses, each shard's index checksum,
+each chunk's checksum, and that every chunk decodes. Arrays of the store's own
+layout are read by :mod:`synthcal.store.shards` shard by shard; any other array
+(``scene/``, ``splits/``) through zarr-python, which checks the ``crc32c`` codec
+itself. Stores of format ``synthcal-store/2`` are held to their ``manifest``
+attribute (shard files only), ``synthcal-store/1`` to nothing but their chunks.
 """
 
 from __future__ import annotations
@@ -21,10 +25,13 @@ from synthcal.store.errors import CorruptStore, StoreError
 from synthcal.store.format import (
     FORMAT_VERSION,
     LEGACY_FORMAT_VERSIONS,
+    LEGACY_LACKS,
     LegacyStoreWarning,
     check_manifest,
+    open_group,
     open_store,
 )
+from synthcal.store.manifest import MANIFEST_FILE, check_files, read_manifest, store_files
 from synthcal.store.shards import UnsupportedLayout, read_rows, shard_layout
 
 __all__ = ["Report", "verify_store"]
@@ -49,16 +56,23 @@ class Report:
         return not self.problems
 
 
-def _arrays(group: zarr.Group, prefix: str = "") -> list[tuple[str, zarr.Array]]:
-    """Every array under a group, depth first, with its path."""
-    out: list[tuple[str, zarr.Array]] = []
-    for name, node in sorted(group.members(), key=lambda item: item[0]):
-        key = f"{prefix}{name}"
+def _arrays(store: Path) -> tuple[list[tuple[str, zarr.Array]], list[str]]:
+    """Every array of a store, found by its ``zarr.json`` on disk, with its path; and the metadata Zarr cannot read."""
+    arrays, problems = [], []
+    root = zarr.storage.LocalStore(store, read_only=True)
+    for name in store_files(store):
+        if not name.endswith("/zarr.json"):
+            continue
+        key = name.removesuffix("/zarr.json")
+        try:
+            node = zarr.open(root, path=key, mode="r", zarr_format=3)
+        except Exception as exc:  # noqa: BLE001 (any metadata Zarr cannot read is damage to report)
+            problems.append(f"{store / name}: not valid Zarr metadata ({type(exc).__name__}: "
+                            f"{' '.join(str(exc).split())})")
+            continue
         if isinstance(node, zarr.Array):
-            out.append((key, node))
-        else:
-            out.extend(_arrays(node, key + "/"))
-    return out
+            arrays.append((key, node))
+    return arrays, problems
 
 
 def _check_array(store: Path, key: str, array: zarr.Array) -> list[str]:
@@ -83,6 +97,21 @@ def _check_array(store: Path, key: str, array: zarr.Array) -> list[str]:
     return problems
 
 
+def _check_manifest_file(store: Path, report: Report) -> None:
+    """The manifest file against every byte of the store (a store without one: nothing to do here)."""
+    if not (store / MANIFEST_FILE).is_file():
+        return
+    try:
+        recorded = read_manifest(store)
+    except CorruptStore as exc:
+        report.problems.append(str(exc))
+        return
+    if recorded.state == "writing":
+        report.problems.append(f"{store / MANIFEST_FILE}: state 'writing': a split drawing or image rendering was "
+                               f"stopped before it finished (`synthcal split {store}` finishes it)")
+    report.problems.extend(check_files(store, recorded, full=True))
+
+
 def verify_store(path: str | Path) -> Report:
     """Check a store completely (see the module docstring).
 
@@ -90,24 +119,36 @@ def verify_store(path: str | Path) -> Report:
         a :class:`Report`; ``report.ok`` when nothing is wrong.
     """
     report = Report(Path(path))
+    store = report.store
+    opened: str | None = None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LegacyStoreWarning)  # noted below instead
         try:
-            group = open_store(path, allow_incomplete=True)
-        except CorruptStore:  # a manifest mismatch: the full check below names each file
-            group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r", zarr_format=3)
+            open_store(store, allow_incomplete=True)
+        except CorruptStore as exc:  # the full checks below name each file; this message only if they find nothing
+            opened = str(exc)
         except StoreError as exc:
             report.problems.append(str(exc))
             return report
+    _check_manifest_file(store, report)
+    try:
+        group = open_group(store)
+    except CorruptStore as exc:
+        report.problems.extend(p for p in [str(exc)] if p not in report.problems)
+        return report
     version = group.attrs.get("format_version")
     if not group.attrs.get("complete", False):
-        report.problems.append(f"{path}: the store is incomplete (generation did not finish)")
+        report.problems.append(f"{store}: the store is incomplete (generation did not finish)")
     if version in LEGACY_FORMAT_VERSIONS:
-        report.notes.append(f"{path}: format {version!r}: no chunk checksums and no manifest, so only shard "
-                            f"indexes and decoding were checked; regenerate for {FORMAT_VERSION!r}")
-    elif isinstance(recorded := group.attrs.get("manifest"), dict):
-        report.problems.extend(p for p in check_manifest(report.store, recorded, checksums=True)
+        report.notes.append(f"{store}: format {version!r} {LEGACY_LACKS[str(version)]}, so only what it records "
+                            f"was checked; regenerate for {FORMAT_VERSION!r}")
+    if isinstance(recorded := group.attrs.get("manifest"), dict):
+        report.problems.extend(p for p in check_manifest(store, recorded, checksums=True)
                                if p not in report.problems)
-    for key, array in _arrays(group):
-        report.problems.extend(p for p in _check_array(report.store, key, array) if p not in report.problems)
+    arrays, unreadable = _arrays(store)
+    report.problems.extend(p for p in unreadable if p not in report.problems)
+    for key, array in arrays:
+        report.problems.extend(p for p in _check_array(store, key, array) if p not in report.problems)
+    if opened is not None and not report.problems:
+        report.problems.append(opened)
     return report

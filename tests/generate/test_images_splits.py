@@ -18,7 +18,17 @@ from synthcal.generate import images as images_module
 from synthcal.generate.images import used_indices
 from synthcal.generate.pipeline import anchored_spec, generate_dataset, load_scene
 from synthcal.generate.splits import draw_splits
-from synthcal.store import ImagesNotRendered, array_at, open_store, read_samples, rendered_mask, verify_store
+from synthcal.store import (
+    CorruptStore,
+    ImagesNotRendered,
+    array_at,
+    open_store,
+    read_manifest,
+    read_samples,
+    rendered_mask,
+    verify_store,
+    write_manifest,
+)
 from synthcal.store.shards import read_rows
 from synthcal.store.splits import pool_dictionary_indices, read_mixed_dictionary, resolve_mixed_dictionary
 
@@ -109,10 +119,10 @@ def test_a_killed_render_resumes(store, smoke_stores):
     lost = np.flatnonzero(mask)[-2:]  # a kill after a shard file was written, before image_rendered marked it
     mask[lost] = False
     array_at(group, "image_rendered")[:] = mask.astype(np.uint8)
-    recorded = dict(group.attrs["manifest"])
-    recorded["image"] = {"shards": recorded["image"]["shards"], "files": {}}
-    group.attrs.update({"manifest": recorded, "images": {**group.attrs["images"], "state": "rendering"}})
-    open_store(store)  # rendering: the image files are not held to the (stale) manifest
+    group.attrs.update({"images": {**group.attrs["images"], "state": "rendering"}})
+    write_manifest(store, "writing", read_manifest(store).files)  # as the killed renderer's begin() left it
+    with pytest.raises(CorruptStore, match=rf"{store}: a writer .* `synthcal split {store}` finishes the job"):
+        open_store(store)  # readers refuse a store whose files are not sealed
     assert not verify_store(store).ok
     assert draw_splits(store, seeds=(0,), sizes=SMALL).rendered == len(lost)
     assert verify_store(store).ok

@@ -10,7 +10,7 @@ from synthcal.cli import main, parse_seeds
 from synthcal.config import SplitSizes, load_config
 from synthcal.generate.pipeline import generate_dataset
 from synthcal.generate.splits import SplitsResized, draw_indices, draw_mixed, draw_splits
-from synthcal.store import open_store, read_samples
+from synthcal.store import open_store, read_samples, write_manifest
 from synthcal.store.splits import (
     SPLIT_NAMES,
     SplitError,
@@ -158,6 +158,7 @@ def test_regenerated_source_is_detected(stores, tmp_path):
         shutil.copytree(stores[name], tmp_path / f"{name}.zarr")
     source = zarr.open_group(zarr.storage.LocalStore(tmp_path / "intersection-2.zarr"), mode="r+")
     source.attrs["config_hash"] = "0" * 64
+    write_manifest(tmp_path / "intersection-2.zarr")  # regenerated: a sealed store of another pool
     with pytest.raises(SplitError, match="regenerated since the split was drawn"):
         resolve_mixed_dictionary(tmp_path / "intersection-5.zarr", 0)
 

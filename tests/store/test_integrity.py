@@ -16,9 +16,11 @@ from synthcal.data import load_split
 from synthcal.generate.splits import draw_splits
 from synthcal.store import (
     MANIFEST_ARRAYS,
+    MANIFEST_FILE,
     CorruptStore,
     LegacyStoreWarning,
     open_store,
+    read_manifest,
     read_samples,
     verify_store,
 )
@@ -72,18 +74,15 @@ def test_every_array_ends_in_a_crc32c(pristine):
         assert inner[-1] == {"name": "crc32c"}, name
 
 
-def test_manifest_matches_the_files(pristine):
-    recorded = open_store(pristine).attrs["manifest"]
-    assert set(recorded) == set(MANIFEST_ARRAYS)
-    n, s = open_store(pristine).attrs["N"], open_store(pristine).attrs["shard_size"]
-    assert recorded["image"]["shards"] == -(-n // s) and recorded["scene/image"]["shards"] == 1
-    for name, entry in recorded.items():
-        on_disk = sorted(p.relative_to(pristine / name).as_posix() for p in (pristine / name / "c").rglob("*")
-                         if p.is_file())
-        assert sorted(entry["files"]) == on_disk, name
-        for key, item in entry["files"].items():
-            data = (pristine / name / key).read_bytes()
-            assert item == {"size": len(data), "crc32c": f"{google_crc32c.value(data):08x}"}
+def test_manifest_lists_every_file_with_its_size_and_crc32c(pristine):
+    recorded = read_manifest(pristine)
+    on_disk = sorted(p.relative_to(pristine).as_posix() for p in pristine.rglob("*") if p.is_file())
+    assert recorded.state == "sealed" and sorted(recorded.files) == [n for n in on_disk if n != MANIFEST_FILE]
+    assert {"zarr.json", "image/zarr.json", "splits/zarr.json", "splits/seed-0/test/c/0"} <= set(recorded.files)
+    for name, item in recorded.files.items():
+        data = (pristine / name).read_bytes()
+        assert item == {"size": len(data), "crc32c": f"{google_crc32c.value(data):08x}"}, name
+    assert "manifest" not in open_store(pristine).attrs  # the synthcal-store/2 attribute is gone
 
 
 def test_a_whole_store_verifies(pristine, capsys):
@@ -181,7 +180,7 @@ def legacy_store(path: Path) -> dict[str, np.ndarray]:
 
 def test_older_stores_still_read_with_a_note(tmp_path, capsys):
     arrays = legacy_store(tmp_path / "old.zarr")
-    with pytest.warns(LegacyStoreWarning, match="lacks chunk checksums"):
+    with pytest.warns(LegacyStoreWarning, match="has no chunk checksums"):
         group = open_store(tmp_path / "old.zarr")
     index = np.array([7, 0, 5])
     with warnings.catch_warnings():

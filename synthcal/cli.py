@@ -793,10 +793,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     command = None
     try:
-        try:
-            args = build_parser().parse_args(argv)
-        except SystemExit as exc:  # argparse has printed its message (or the help): its status, as a return
-            return exc.code if isinstance(exc.code, int) else 2
+        args = build_parser().parse_args(argv)
         command = args.command
         return run_command(args)
     except KeyboardInterrupt:

@@ -204,8 +204,9 @@ def test_plot_draws_the_metric_it_is_given(data, tmp_path, monkeypatch, capsys):
         assert titles[1] == f"identity\n{metric} {100 * per_image[metric].iloc[0]:.1f} %"
     assert heights["iou"] != pytest.approx(heights["iou_bg"])  # the two readings differ here: the bars show which
     capsys.readouterr()
-    assert main(["plot", str(results), "-o", str(tmp_path / "x"), "--metric", "miou"]) == 2
-    assert "--metric: invalid choice: 'miou'" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:
+        main(["plot", str(results), "-o", str(tmp_path / "x"), "--metric", "miou"])
+    assert refused.value.code == 2 and "--metric: invalid choice: 'miou'" in capsys.readouterr().err
 
 
 def test_reference_estimators_sit_in_every_row():

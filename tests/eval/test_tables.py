@@ -376,3 +376,88 @@ def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert err[0].startswith("synthcal: error: --paired: no runs with model 'nobody'; present: ")
     assert err[1] == "synthcal: error: --paired: both sides must vary the same key (value 'proposed loss=mse')"
+
+
+# --- issue 25 item 6: the all-background floor ---------------------------------------------
+
+
+def test_background_floor_is_sklearns_weighted_jaccard_of_an_all_background_estimate():
+    from sklearn.metrics import jaccard_score
+
+    from synthcal.eval.statistics import background_floor
+
+    rng = np.random.default_rng(3)
+    truths = rng.choice(4, size=(4, 6, 9), p=[0.6, 0.2, 0.15, 0.05]).astype(np.uint8)
+    truths[1] = 0  # a view of background only: the estimate is right
+    truths[2, :, :4] = 2  # and one with a lot of class 2
+    zeros = np.zeros(truths.shape[1:], np.uint8)
+    expected = np.mean([jaccard_score(t.ravel(), zeros.ravel(), average="weighted") for t in truths])
+    assert background_floor(truths, "iou_weighted") == pytest.approx(expected)
+    assert background_floor(truths, "iou_weighted") == pytest.approx(np.mean([np.mean(t == 0) ** 2 for t in truths]))
+    assert background_floor(truths[[0, 2, 3]], "iou") == 0.0  # no foreground predicted
+    with pytest.raises(ValueError, match="iou_part"):
+        background_floor(truths, "iou_part")
+
+
+def test_iou_weighted_tables_print_the_floor_on_a_line_of_its_own():
+    frame = MATCHING.assign(iou_weighted=MATCHING["iou"])
+    lines = format_table(frame, "matching", value="iou_weighted", floors={"intersection-1": 52.871}).splitlines()
+    assert "all-background floor: intersection-1 52.87" in lines  # two datasets: named
+    one = frame[frame["dataset"] == "intersection-1"]
+    assert "all-background floor: 52.87" in format_table(one, "matching", floors={"intersection-1": 52.871})
+    assert "floor" not in format_table(one, "matching")
+
+
+# --- issue 24 item 5: tables a person can read -------------------------------------------
+
+
+def test_plurals_and_one_seed():
+    from synthcal.eval.tables import counted
+
+    assert (counted(1, "seed"), counted(2, "run"), counted(0, "run")) == ("1 seed", "2 runs", "0 runs")
+    one = MATCHING[MATCHING["dataset"] == "worldcup2014"]
+    text = flat(format_table(one, "matching"))
+    assert "over 1 seed." in text and "1 seeds" not in text
+
+
+def test_segmentation_is_said_of_the_models_that_read_it():
+    models = runs([("intersection-1", m, "step-by-step", "top-mse", "top-mse", [0.6, 0.62]) for m in
+                   ("sha2020", "proposed", "sift")]).assign(segmentation="ground-truth")
+    models.loc[models["model"] == "sift", ["segmentation", "training", "loss", "matching_score"]] = None
+    text = flat(format_table(models, "models"))
+    assert "segmentation: the true semantic maps (ground-truth) (read by sha2020, proposed only)" in text
+    assert "read by" not in flat(format_table(models[models["model"] != "sift"], "models"))
+
+
+def test_a_report_states_the_legend_once_wrapped(tmp_path):
+    from synthcal.eval.report import results_tables
+
+    frame = pd.concat([paired_runs(), paired_runs().assign(profile="smoke")], ignore_index=True)
+    blocks = list(results_tables(frame, None, "md", False, "iou"))
+    text = "".join(blocks)
+    assert text.count("### ") == 2 and flat(text).count("Cells: mean ± std over seeds") == 1
+    assert max(len(line) for line in text.splitlines() if not line.startswith("|")) <= CAPTION_WIDTH
+
+
+def test_an_entry_points_name_wins_over_a_dotted_path_to_the_same_class(monkeypatch):
+    from importlib.metadata import EntryPoint
+
+    from synthcal.estimators import registry
+    from synthcal.eval.report import one_label, results_tables
+
+    real = registry.estimator_entry_points()
+    fake = EntryPoint(name="ordered", value="collections:OrderedDict", group=registry.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "estimator_entry_points", lambda: [*real, fake])
+    rows = pd.DataFrame({"dataset": "intersection-1", "seed": [0, 1, 0, 1, 0, 1],
+                         "model": ["ordered", "ordered", "OrderedDict", "OrderedDict", "identity", "identity"],
+                         "estimator": ["ordered"] * 2 + ["collections:OrderedDict"] * 2 + ["identity"] * 2,
+                         "iou": [0.5, 0.6, 0.5, 0.6, 0.1, 0.1], "run_id": list("abcdef"), "training": None,
+                         "loss": None, "matching_score": None, "segmentation": None, "profile": None})
+    labelled = one_label(rows)
+    assert sorted(labelled["model"]) == ["identity", "identity", "ordered", "ordered"]
+    assert list(labelled["run_id"]) == list("abef")  # the entry point's runs kept
+    # A path run alone (no run under the entry point) is relabelled, not dropped.
+    alone = one_label(rows[rows["estimator"] != "ordered"])
+    assert list(alone["model"]) == ["ordered", "ordered", "identity", "identity"]
+    table = "".join(results_tables(rows, "models", "md", False, "iou"))
+    assert table.splitlines()[0] == "| dataset | identity | ordered |"  # one column each

@@ -372,6 +372,7 @@ DEMO_SEEDS = "0-4"
 
 def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> None:
     from synthcal.eval.harness import expand_runs, run_sweep
+    from synthcal.eval.tables import counted
     from synthcal.generate.pipeline import store_path
     from synthcal.generate.splits import draw_splits
 
@@ -385,30 +386,31 @@ def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> No
     runs = expand_runs(out, [DEMO_DATASET], DEMO_ESTIMATORS, seeds, args.profile, training.settings(),
                        segmentations=(training.segmentation,))
     frame = run_sweep(runs, out / "results", device=args.device, progress=_progress(args))
-    print(f"benchmark: {len(runs)} runs in {time.perf_counter() - started:.0f} s; results in {out / 'results'}\n")
-    _print_tables(frame, None, "md", False)
+    print(f"benchmark: {counted(len(runs), 'run')} in {time.perf_counter() - started:.0f} s; "
+          f"results in {out / 'results'}\n")
+    _print_tables(frame, None, "md", False, results=out / "results")
 
 
 
 
 def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool,
-                  metric: str = DEFAULT_READING) -> None:
+                  metric: str = DEFAULT_READING, results: Path | None = None) -> None:
     """Print :func:`synthcal.eval.report.results_tables`."""
     from synthcal.eval.report import ReportError, results_tables
 
     try:
-        for block in results_tables(frame, layout, fmt, compare_paper, metric):
+        for block in results_tables(frame, layout, fmt, compare_paper, metric, results):
             print(block)
     except ReportError as error:
         raise _UserError(str(error)) from None
 
 
-def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str) -> None:
+def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str, results: Path) -> None:
     """Print :func:`synthcal.eval.report.paired_report`."""
     from synthcal.eval.report import ReportError, paired_report
 
     try:
-        text = paired_report(frame, sides, fmt, metric)
+        text = paired_report(frame, sides, fmt, metric, results)
     except ReportError as error:
         raise _UserError(f"--paired: {error}") from None
     print(text)
@@ -428,6 +430,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     """Exit 0 when every run is ok, 1 when any failed (each printed with its reason), 130 on Ctrl-C."""
     from synthcal.config import load_config
     from synthcal.eval.harness import check_device, expand_runs, plan_lines, run_sweep
+    from synthcal.eval.tables import counted
 
     config = load_config(args.config)
     training = config.training(args.profile)
@@ -444,7 +447,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     runs = expand_runs(args.data, args.datasets, args.estimator, parse_seeds(args.seeds), args.profile,
                        settings, args.training, args.loss, args.matching, segmentations,
                        device=args.device, limits=_bench_limits(config, args.profile), dictionary=dictionary)
-    print(f"bench: {len(runs)} runs, profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
+    print(f"bench: {counted(len(runs), 'run')}, profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
     print("\n".join(plan_lines(runs)), flush=True)
     started = time.perf_counter()
     try:
@@ -457,9 +460,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     ids = {run.id for run in runs}
     frame = frame[frame["run_id"].isin(ids)]
     failed = frame[frame["status"] != "ok"]
-    print(f"{len(runs)} runs ({len(failed)} failed) in {time.perf_counter() - started:.0f} s; "
+    print(f"{counted(len(runs), 'run')} ({len(failed)} failed) in {time.perf_counter() - started:.0f} s; "
           f"results in {args.results}\n")
-    _print_tables(frame, None, "md", False)
+    _print_tables(frame, None, "md", False, results=args.results)
     for row in failed.itertuples():
         print(f"failed: {row.run_id}: {row.error or 'no reason recorded'}")
     if len(failed):
@@ -478,9 +481,9 @@ def _cmd_table(args: argparse.Namespace) -> None:
     if frame.empty:
         raise _UserError(f"{args.results}: no finished runs")
     if args.paired:
-        _print_paired(frame, args.paired, args.format, args.metric)
+        _print_paired(frame, args.paired, args.format, args.metric, args.results)
     else:
-        _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric)
+        _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric, args.results)
     # Failed runs count in the means (IoU 0, completeness 0); say which and why, off stdout for CSV.
     for line in failed_runs(frame):
         if args.format == "csv":
@@ -492,10 +495,12 @@ def _cmd_table(args: argparse.Namespace) -> None:
 def _cmd_plot(args: argparse.Namespace) -> None:
     from synthcal.eval.harness import collect_results
     from synthcal.eval.plots import plot_iou, plot_overlays
+    from synthcal.eval.report import one_label
 
     frame = collect_results(args.results)
     if frame.empty:
         raise _UserError(f"{args.results}: no finished runs")
+    frame = one_label(frame)
     print(plot_iou(frame, args.output / "iou.png", args.metric))
     for dataset in dict.fromkeys(frame["dataset"]):
         print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count,

@@ -1,22 +1,37 @@
 """The text of ``synthcal table``: the results tables, or the paired differences of two sides.
 
 :func:`results_tables` splits a results frame by segmentation and profile and
-formats one table per part and layout (:func:`synthcal.eval.tables.format_table`);
+formats one table per part and layout (:func:`synthcal.eval.tables.format_table`),
+the legend once after the last; under ``iou_weighted`` each table states the
+all-background floor of its datasets (:func:`background_floors`).
 :func:`paired_report` reads the two sides of ``--paired A B`` (:func:`paired_sides`)
-and formats their per-seed differences (:func:`synthcal.eval.tables.format_paired`).
-A request the results cannot answer raises :class:`ReportError`, one line for the user.
+and formats their per-seed differences with confidence intervals
+(:func:`synthcal.eval.statistics.format_paired`), the bootstrap's from each run's
+``metrics.csv`` (:func:`per_image_reader`). Both first give each estimator one
+label (:func:`one_label`). A request the results cannot answer raises
+:class:`ReportError`, one line for the user.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+import functools
+import json
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from synthcal.eval.harness import table_runs
-from synthcal.eval.tables import PAIR_KEYS, format_paired, format_table
+from synthcal.eval.runs import estimator_label
+from synthcal.eval.statistics import background_floor, format_paired
+from synthcal.eval.tables import PAIR_KEYS, format_table, legend, wrap_caption
 
-__all__ = ["ReportError", "results_tables", "split_by", "paired_sides", "paired_report"]
+__all__ = ["ReportError", "results_tables", "split_by", "one_label", "background_floors", "per_image_reader",
+           "paired_sides", "paired_report"]
+
+# The reading whose tables state the all-background floor: the one that rewards predicting background.
+FLOOR_READINGS = ("iou_weighted",)
 
 # Tables name the soccer dataset as the paper does.
 _ALIASES = {"soccer": "worldcup2014"}
@@ -44,8 +59,9 @@ def split_by(frame: pd.DataFrame, keys: Sequence[str]) -> list[tuple[str, pd.Dat
 
 
 def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_paper: bool,
-                   metric: str) -> Iterator[str]:
-    """The tables of a results frame, one per segmentation / profile in it, each after its title (one block each).
+                   metric: str, results: str | Path | None = None) -> Iterator[str]:
+    """The tables of a results frame, one per segmentation / profile in it, each after its title (one block each),
+    then the legend they share (not in CSV).
 
     A generator: the blocks before a failing layout come out before the error.
 
@@ -56,12 +72,16 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
         fmt: ``md``, ``latex`` or ``csv`` (no titles in CSV).
         compare_paper: add the published figures.
         metric: the column shown.
+        results: the results folder (its runs' records and stores give the
+            all-background floor under ``iou_weighted``); None: no floor.
 
     Raises:
         ReportError: no finished runs, or a layout the results cannot fill.
     """
     if frame.empty:
         raise ReportError("no finished runs in the results folder")
+    frame = one_label(frame)
+    floors = background_floors(results, frame, metric) if results is not None and metric in FLOOR_READINGS else {}
     frame = table_runs(frame)
     for title, part in split_by(frame, ("segmentation", "profile")):
         mixed = part["dataset"].str.startswith("mixed-")
@@ -70,10 +90,111 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
             if title and fmt != "csv":
                 yield f"{'%' if fmt == 'latex' else '###'} {title}\n"
             try:
-                table = format_table(part, name, fmt, value=metric, compare_paper=compare_paper, aliases=_ALIASES)
+                table = format_table(part, name, fmt, value=metric, compare_paper=compare_paper, aliases=_ALIASES,
+                                     floors=floors, with_legend=False)
             except ValueError as error:
                 raise ReportError(f"table {name!r}: {error}") from None
             yield table
+    if fmt != "csv":
+        yield wrap_caption(legend(metric, compare_paper), fmt) + "\n"
+
+
+def one_label(frame: pd.DataFrame) -> pd.DataFrame:
+    """One label per estimator: a run named by a dotted path to a class that an installed entry point
+    also names gets the entry point's name and label (``pkg.mod:SiftEstimator`` → ``sift``).
+
+    Where the same runs were made under both names, the entry point's are kept (they compute the
+    same thing). A path that no longer imports keeps its label.
+    """
+    if "estimator" not in frame or frame.empty:
+        return frame
+    from synthcal.estimators.registry import known_estimators, resolve_estimator
+
+    names: dict[str, tuple[str, str]] = {}  # dotted path → (entry point name, its label)
+    entry_points = known_estimators()
+    for path in {str(e) for e in frame["estimator"].dropna() if ":" in str(e)}:
+        try:
+            cls = resolve_estimator(path)
+            # The entry point naming the same path, else one whose class is the same object (a re-export).
+            found = [n for n, v in entry_points.items() if v == path] or [
+                n for n, v in entry_points.items()
+                if v.rpartition(":")[2] == path.rpartition(":")[2] and resolve_estimator(n) is cls]
+        except Exception:  # a plug-in gone or broken: its rows keep their label
+            continue
+        if found:
+            names[path] = (found[0], estimator_label(found[0], cls))
+    if not names:
+        return frame
+    out = frame.copy()
+    renamed = out["estimator"].isin(list(names))
+    old_labels = out.loc[renamed, "estimator"].map(lambda p: estimator_label(p, resolve_estimator(p)))
+    # Only rows labelled by the path's fallback (a variant label, a class label: already one per estimator).
+    relabel = renamed & (out["model"] == old_labels.reindex(out.index))
+    out.loc[relabel, "model"] = out.loc[relabel, "estimator"].map(lambda p: names[p][1])
+    out.loc[renamed, "estimator"] = out.loc[renamed, "estimator"].map(lambda p: names[p][0])
+    keys = [k for k in (*PAIR_KEYS, "seed", "dictionary") if k in out]
+    # The entry point's runs first, so that a renamed run that repeats one is the copy dropped.
+    ordered = out.assign(_renamed=renamed).sort_values("_renamed", kind="stable")
+    repeated = ordered[keys].astype(str).duplicated() & ordered["_renamed"]
+    return ordered[~repeated].drop(columns="_renamed").sort_index()
+
+
+def _scored_pool_indices(folder: Path, metric: str) -> np.ndarray | None:
+    """The pool indices of the test images a run scored (its ``metrics.csv``; None if unreadable)."""
+    try:
+        per_image = pd.read_csv(folder / "metrics.csv", usecols=["pool_index", metric])
+    except (OSError, ValueError):
+        return None
+    return per_image.loc[per_image[metric].notna(), "pool_index"].to_numpy()
+
+
+def background_floors(results: str | Path, frame: pd.DataFrame, metric: str) -> dict[str, float]:
+    """Dataset label → the all-background floor of ``metric`` in percent, mean over the seeds' test sets.
+
+    Each run's record names its store and seed; its ``metrics.csv`` the test images
+    it scored; :func:`synthcal.eval.statistics.background_floor` scores an all-zero
+    estimate against their stored true class maps. Runs whose store, split or
+    records cannot be read are left out (a dataset without any: no floor).
+    """
+    from synthcal.data import load_split
+
+    per_seed: dict[tuple[str, int], float] = {}
+    cache: dict[tuple[str, int, bytes], float] = {}
+    for run_id, dataset, seed in frame[["run_id", "dataset", "seed"]].itertuples(index=False):
+        if (dataset, seed) in per_seed:
+            continue
+        folder = Path(results) / "runs" / str(run_id)
+        indices = _scored_pool_indices(folder, metric)
+        if indices is None:
+            continue
+        try:
+            store = str(json.loads((folder / "run.json").read_text(encoding="utf-8"))["run"]["store"])
+            key = (store, int(seed), indices.tobytes())
+            if key not in cache:
+                test = load_split(store, "test", int(seed), False)
+                keep = np.isin(np.asarray(test.indices), indices)
+                cache[key] = background_floor(test.semantics[keep], metric) if keep.any() else np.nan
+        except (OSError, ValueError, KeyError, TypeError):  # StoreError is a ValueError
+            continue
+        if not np.isnan(cache[key]):
+            per_seed[(dataset, seed)] = cache[key]
+    floors: dict[str, list[float]] = {}
+    for (dataset, _), floor in per_seed.items():
+        floors.setdefault(dataset, []).append(floor)
+    return {dataset: 100.0 * float(np.mean(values)) for dataset, values in floors.items()}
+
+
+def per_image_reader(results: str | Path, metric: str) -> Callable[[str], pd.Series | None]:
+    """A run id → its per-image ``metric`` (fractions indexed by pool index, NaN where not scored), read from
+    ``RESULTS/runs/<run-id>/metrics.csv``; None where the file or column is missing."""
+    @functools.cache
+    def read(run_id: str) -> pd.Series | None:
+        try:
+            per_image = pd.read_csv(Path(results) / "runs" / run_id / "metrics.csv", usecols=["pool_index", metric])
+        except (OSError, ValueError):
+            return None
+        return per_image.set_index("pool_index")[metric]
+    return read
 
 
 def paired_sides(frame: pd.DataFrame, sides: Sequence[str]) -> tuple[str, str, str]:
@@ -103,17 +224,25 @@ def paired_sides(frame: pd.DataFrame, sides: Sequence[str]) -> tuple[str, str, s
     return keys[0], values[0], values[1]
 
 
-def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str) -> str:
-    """``table --paired A B``: per-seed differences A − B per cell, beside the paper's difference.
+def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str,
+                  results: str | Path | None = None) -> str:
+    """``table --paired A B``: per-seed differences A − B per cell with their confidence intervals, beside
+    the paper's difference.
+
+    Args:
+        results: the results folder, whose ``metrics.csv`` files give the bootstrap
+            interval; None: no bootstrap interval.
 
     Raises:
         ReportError: as :func:`paired_sides`, or no pairs to compare.
     """
+    frame = one_label(frame)
     key, a, b = paired_sides(frame, sides)
     try:
         # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
         # not over the key compared (its one value would be paired with itself).
         frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
-        return format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES)
+        per_image = None if results is None else per_image_reader(results, metric)
+        return format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES, per_image=per_image)
     except ValueError as error:
         raise ReportError(str(error)) from None

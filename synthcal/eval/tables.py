@@ -48,30 +48,33 @@ the paper's model tables), then unknown values alphabetically, "–" last.
 
 Cells
 -----
-Beside every column, its completeness in percent (mean over seeds, 1 decimal):
-a mean IoU is only comparable with the share of images it counts as valid.
 IoU in percent, ``mean ± std`` over seeds with 2 decimals. ``std`` is the sample
 standard deviation (``ddof = 1``): the five seeds are five draws of the split,
 and the spread of *those draws* is what a reader compares against; a single
-seed shows the mean alone. The highest mean of a row (compared as displayed,
-so ties share it) is bold — Markdown ``**…**``, LaTeX ``\\textbf{…}`` — when the
-row has at least two values and the highest is above 0 (a row of zeros, every run
-failed, has no best). ``compare_paper=True`` adds the published figure
+seed shows the mean alone. A mean IoU is only comparable with the share of
+images it counts as valid: a cell whose completeness (mean over seeds) is under
+100 % is marked ``†`` and a footnote gives it. The highest mean of a row (compared
+as displayed, so ties share it) is bold — Markdown ``**…**``, LaTeX ``\\textbf{…}`` —
+when the row has at least two values and the highest is above 0 (a row of zeros,
+every run failed, has no best). ``compare_paper=True`` adds the published figure
 beside each column ("paper"), joined on every key; the paper's IoU is undefined
 beyond its prose, so the comparison is offered for each of its three readings
-(``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8), and the caption names the
-reading shown. The caption also says under what our figures were obtained —
-profile, segmentation (a UNet's or the true maps) and training budget, from the
-optional columns — and, with ``compare_paper``, that the paper's come from a UNet's
-segmentation and its own full training.
+(``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8).
 
-Paired differences
-------------------
-:func:`paired_frame` / :func:`format_paired`: two models (or two values of another
-key) trained on the same split of the same seed with the same settings are a
-pair; per cell, the mean of the per-seed differences A − B in points, its
-standard deviation (ddof = 1), the seeds where A > B, and the paper's A − B for
-the same cell.
+Below the table
+---------------
+Wrapped at 100 columns: the all-background floor where the caller gives it
+(``floors``: the score of an estimate whose view is all background;
+:mod:`synthcal.eval.statistics`), the incomplete cells, the table's *notes* (its
+seeds, single-valued keys and the conditions — profile, segmentation with the
+models that read it, training budget — from the optional columns) and the
+*legend* (the reading named and described, what a cell holds; with
+``compare_paper``, that the paper's figures come from a UNet's segmentation and
+its own full training). A report of several tables states the legend once
+(``with_legend=False``).
+
+Paired differences of two models, with their confidence intervals, are
+:mod:`synthcal.eval.statistics`.
 
 Example
 -------
@@ -82,15 +85,16 @@ Example
 >>> text = format_table(runs, "matching")
 >>> for line in text.splitlines()[:3]:
 ...     print(line)
-| dataset | mse | mse (complete %) | top-mse | top-mse (complete %) |
-|:---|---:|---:|---:|---:|
-| intersection-1 | 81.00 ± 1.41 | – | **85.00 ± 1.41** | – |
->>> text.splitlines()[-1].split(". ")[-1]
-'model: proposed; training: end-to-end; loss: top-mse.'
+| dataset | mse | top-mse |
+|:---|---:|---:|
+| intersection-1 | 81.00 ± 1.41 | **85.00 ± 1.41** |
+>>> print(text.splitlines()[4])
+By matching_score, over 2 seeds. model: proposed; training: end-to-end; loss: top-mse.
 """
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
@@ -101,8 +105,9 @@ import pandas as pd
 
 from synthcal.config import DESCRIPTIONS, READINGS
 
-__all__ = ["KEYS", "MISSING", "Layout", "LAYOUTS", "paper_results", "aggregate", "table_frame", "format_table",
-           "failed_runs", "PAIR_KEYS", "paired_frame", "format_paired"]
+__all__ = ["KEYS", "MISSING", "PAIR_KEYS", "FORMATS", "Layout", "LAYOUTS", "paper_results", "validate_results",
+           "aggregate", "order_values", "table_frame", "counted", "wrap_caption", "latex_escape", "legend", "notes",
+           "floor_line", "format_table", "failed_runs", "SEGMENTATION_WORDS"]
 
 KEYS = ("dataset", "model", "training", "loss", "matching_score")
 # Keys that must agree for two runs to be a pair (besides the seed): the table keys and
@@ -151,7 +156,7 @@ def paper_results() -> pd.DataFrame:
         return pd.read_csv(f)
 
 
-def _validate(results: pd.DataFrame, value: str, keys: tuple[str, ...] = KEYS) -> pd.DataFrame:
+def validate_results(results: pd.DataFrame, value: str, keys: tuple[str, ...] = KEYS) -> pd.DataFrame:
     """The results with every key present (missing values as "–", as text), the value and completeness
     as numbers; one run per keys and seed."""
     missing = [c for c in (*REQUIRED, value) if c not in results.columns]
@@ -185,7 +190,7 @@ def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:
         ``n_seeds``, ``completeness`` (mean over seeds; NaN where the results have
         none).
     """
-    frame = _validate(results, value)
+    frame = validate_results(results, value)
     grouped = frame.groupby(list(KEYS), sort=False)
     out = grouped[value].agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count")
     out["completeness"] = grouped["completeness"].mean()
@@ -194,7 +199,7 @@ def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:
     return out
 
 
-def _order(values: pd.Series, key: str, layout: str) -> list[str]:
+def order_values(values: pd.Series, key: str, layout: str) -> list[str]:
     """Distinct values in the paper's order (this layout's table first), then the others sorted, "–" last."""
     paper = paper_results()
     paper = pd.concat([paper[paper["table"] == layout], paper[paper["table"] != layout]])
@@ -264,9 +269,9 @@ def table_frame(
     constants = {k: cells[k].iloc[0] for k in KEYS if k != spec.columns and k not in varying}
     # Keys are unique per cell after aggregation, so unstacking loses nothing.
     table = cells.set_index([*varying, spec.columns])[fields].unstack(spec.columns).swaplevel(0, 1, axis=1)
-    column_order = _order(cells[spec.columns], spec.columns, layout)
+    column_order = order_values(cells[spec.columns], spec.columns, layout)
     table = table.reindex(columns=pd.MultiIndex.from_product([column_order, fields]))
-    row_order = [_order(cells[k], k, layout) for k in varying]
+    row_order = [order_values(cells[k], k, layout) for k in varying]
     present = set(map(tuple, cells[varying].to_numpy()))
     rows = [r for r in pd.MultiIndex.from_product(row_order) if tuple(r) in present]
     index = (pd.MultiIndex.from_tuples(rows, names=varying) if len(varying) > 1
@@ -291,11 +296,32 @@ def _conditions(results: pd.DataFrame, mixed: bool) -> dict[str, list[str]]:
     """Profile, segmentation and training budget of the runs a layout shows (caption)."""
     if "dataset" in results:
         results = results[results["dataset"].astype(str).str.startswith("mixed-") == mixed]
-    return {"profile": _distinct(results, "profile"), "segmentation": _distinct(results, "segmentation"),
-            "dictionary": _distinct(results, "dictionary"), "budget": _distinct(results, "budget")}
+    conditions = {"profile": _distinct(results, "profile"), "segmentation": _distinct(results, "segmentation"),
+                  "dictionary": _distinct(results, "dictionary"), "budget": _distinct(results, "budget")}
+    # Estimators that read no segmentation (plug-ins, references) have none: the caption names those that do.
+    if "segmentation" in results and "model" in results and results["segmentation"].isna().any():
+        conditions["segmentation_readers"] = _distinct(results[results["segmentation"].notna()], "model")
+    return conditions
 
 
 # --- text ------------------------------------------------------------------------------
+
+# Markdown captions wrap at this width; LaTeX comments too.
+CAPTION_WIDTH = 100
+# Marks a cell whose runs returned a valid estimate for fewer than all test images.
+INCOMPLETE = "†"
+
+
+def counted(n: int, word: str) -> str:
+    """``n`` and the word, plural unless n is 1: ``counted(1, "seed")`` → ``"1 seed"``."""
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
+
+
+def wrap_caption(text: str, fmt: str) -> str:
+    """A caption as lines of at most :data:`CAPTION_WIDTH` characters; LaTeX's as comments (escaped)."""
+    if fmt == "latex":
+        return "\n".join("% " + latex_escape(line) for line in textwrap.wrap(text, CAPTION_WIDTH - 2))
+    return textwrap.fill(text, CAPTION_WIDTH)
 
 
 def _cell(mean: float, std: float, n: float) -> str:
@@ -304,22 +330,24 @@ def _cell(mean: float, std: float, n: float) -> str:
     return f"{mean:.2f}" if n < 2 or pd.isna(std) else f"{mean:.2f} ± {std:.2f}"
 
 
-def _latex_escape(text: str) -> str:
+def latex_escape(text: str) -> str:
+    """Text for LaTeX: its special characters escaped, the tables' symbols as LaTeX commands."""
     replacements = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
                     "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
                     "±": r"$\pm$", "–": "--", "—": "---", "−": "$-$", "×": r"$\times$",
-                    ">": "$>$", "<": "$<$"}
+                    ">": "$>$", "<": "$<$", INCOMPLETE: r"$^\dagger$"}
     return "".join(replacements.get(ch, ch) for ch in text)
 
 
-def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[list[bool]]]:
-    """Header, display cells and bold flags (row keys first, repeated keys blanked)."""
+def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[list[bool]], list[str]]:
+    """Header, display cells, bold flags (row keys first, repeated keys blanked) and the incomplete cells
+    (``"<column> in <row keys>: <complete> %"``, marked :data:`INCOMPLETE` in the grid)."""
     column_values = list(dict.fromkeys(table.columns.get_level_values(0)))
     compare = "paper" in table.columns.get_level_values(1)
     header = list(table.index.names)
     for value in column_values:
-        header += [value, f"{value} (complete %)"] + ([f"{value} (paper)"] if compare else [])
-    body, bold, previous = [], [], None
+        header += [value] + ([f"{value} (paper)"] if compare else [])
+    body, bold, incomplete, previous = [], [], [], None
     for key, row in table.iterrows():
         key = key if isinstance(key, tuple) else (key,)
         shown = [k if previous is None or key[: i + 1] != previous[: i + 1] else "" for i, k in enumerate(key)]
@@ -329,37 +357,44 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
         best = np.nanmax(means) if np.isfinite(means).sum() >= 2 and np.nanmax(means) > 0 else np.nan
         cells, flags = list(shown), [False] * len(shown)
         for value, mean in zip(column_values, means, strict=True):
-            cells.append(_cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")]))
-            flags.append(bool(mean == best))
+            cell = _cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")])
             complete = row[(value, "completeness")]
-            cells.append(MISSING if pd.isna(complete) else f"{complete:.1f}")
-            flags.append(False)
+            if not pd.isna(complete) and round(complete, 1) < 100.0:  # as displayed: 99.96 is 100.0
+                cell += f" {INCOMPLETE}"
+                incomplete.append(f"{value} in {' / '.join(key)}: {complete:.1f} %")
+            cells.append(cell)
+            flags.append(bool(mean == best))
             if compare:
                 paper = row[(value, "paper")]
                 cells.append(MISSING if pd.isna(paper) else f"{paper:.2f}")
                 flags.append(False)
         body.append(cells)
         bold.append(flags)
-    return header, body, bold
+    return header, body, bold, incomplete
 
 
-def _caption(table: pd.DataFrame) -> str:
-    seeds = table.attrs.get("n_seeds", [])
-    n = str(seeds[0]) if len(seeds) == 1 else f"{min(seeds)}–{max(seeds)}" if seeds else "?"
-    columns = table.columns.names[0]
-    value = table.attrs.get("value", "iou")
+def legend(value: str, compare_paper: bool = False) -> str:
+    """What every table of a reading says alike: the reading, the cells, bold, the paper's figures."""
     reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
-    text = (f"{value} (%){reading}; by {columns}, mean ± std over {n} seeds (std with ddof = 1); best per row in "
-            f"bold; complete %: share of test images with a valid estimate, mean over seeds.")
-    # A key missing in every run (estimators that do not train have no loss) says nothing: left out.
-    constants = {k: v for k, v in table.attrs.get("constants", {}).items() if v != MISSING}
-    if constants:
-        text += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."
-    text += _conditions_text(table.attrs.get("conditions", {}))
-    if "paper" in table.columns.get_level_values(-1):
+    text = (f"{value} (%){reading}. Cells: mean ± std over seeds (std with ddof = 1; the mean alone for one seed); "
+            f"best per row in bold; {INCOMPLETE}: fewer than all test images got a valid estimate (failures count "
+            f"as 0).")
+    if compare_paper:
         text += (" Paper: the published figure, from a UNet's segmentation and the paper's own full training"
                  " (SPEC §7).")
     return text
+
+
+def notes(table: pd.DataFrame) -> str:
+    """What one table's runs share: the seeds, its single-valued keys and the conditions they were obtained under."""
+    seeds = table.attrs.get("n_seeds", [])
+    n = counted(seeds[0], "seed") if len(seeds) == 1 else f"{min(seeds)}–{max(seeds)} seeds" if seeds else "? seeds"
+    # A key missing in every run (estimators that do not train have no loss) says nothing: left out.
+    constants = {k: v for k, v in table.attrs.get("constants", {}).items() if v != MISSING}
+    text = f"By {table.columns.names[0]}, over {n}."
+    if constants:
+        text += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."
+    return text + _conditions_text(table.attrs.get("conditions", {}))
 
 
 def _conditions_text(conditions: Mapping[str, list[str]]) -> str:
@@ -368,12 +403,26 @@ def _conditions_text(conditions: Mapping[str, list[str]]) -> str:
     if conditions.get("profile"):
         parts.append("profile " + ", ".join(conditions["profile"]))
     if conditions.get("segmentation"):
-        parts.append("segmentation: " + ", ".join(SEGMENTATION_WORDS.get(v, v) for v in conditions["segmentation"]))
+        readers = conditions.get("segmentation_readers")
+        parts.append("segmentation: " + ", ".join(SEGMENTATION_WORDS.get(v, v) for v in conditions["segmentation"])
+                     + (f" (read by {', '.join(readers)} only)" if readers else ""))
     if set(conditions.get("dictionary", ())) - {"split"}:  # said once some run searched the pool
         parts.append("dictionary: " + " | ".join(DICTIONARY_WORDS.get(v, v) for v in conditions["dictionary"]))
     if conditions.get("budget"):
         parts.append("training: " + " | ".join(conditions["budget"]))
     return f" Ours: {'; '.join(parts)}." if parts else ""
+
+
+def floor_line(table: pd.DataFrame, floors: Mapping[str, float]) -> str:
+    """``all-background floor: 52.87`` (one dataset) or ``…: intersection-1 52.87, soccer 61.02``; the
+    score of an estimate whose view is all background, for the table's datasets that have one ("" if none)."""
+    datasets = list(dict.fromkeys(table.index.get_level_values("dataset")))
+    known = [(d, floors[d]) for d in datasets if d in floors]
+    if not known:
+        return ""
+    if len(datasets) == 1:
+        return f"all-background floor: {known[0][1]:.2f}"
+    return "all-background floor: " + ", ".join(f"{d} {f:.2f}" for d, f in known)
 
 
 def format_table(
@@ -383,8 +432,15 @@ def format_table(
     value: str = "iou",
     compare_paper: bool = False,
     aliases: Mapping[str, str] | None = None,
+    floors: Mapping[str, float] | None = None,
+    with_legend: bool = True,
 ) -> str:
     """One of the paper's tables as Markdown, LaTeX or CSV text.
+
+    Below the table, each on lines of its own wrapped at :data:`CAPTION_WIDTH`:
+    the all-background floor (:func:`floor_line`, where ``floors`` has the
+    table's datasets), the cells under 100 % complete, the table's :func:`notes`
+    and the :func:`legend`.
 
     Args:
         results: per-run results (module docstring).
@@ -395,6 +451,9 @@ def format_table(
         value: the metric column.
         compare_paper: add the published figures.
         aliases: our dataset label → the paper's, for the join.
+        floors: dataset label → the all-background floor in percent
+            (:func:`synthcal.eval.statistics.background_floor`); none: no floor line.
+        with_legend: False leaves the legend out (a report of several tables states it once).
 
     Returns:
         The table as text.
@@ -406,7 +465,12 @@ def format_table(
         long = table.stack(level=0, future_stack=True).reset_index()
         long["n_seeds"] = long["n_seeds"].astype("Int64")
         return long.dropna(subset=[c for c in ("mean", "paper") if c in long], how="all").to_csv(index=False)
-    header, body, bold = _text_grid(table)
+    header, body, bold, incomplete = _text_grid(table)
+    below = [floor_line(table, floors or {}),
+             (f"{INCOMPLETE} complete (share of test images with a valid estimate, mean over seeds): "
+              + "; ".join(incomplete) + ".") if incomplete else "",
+             notes(table), legend(value, compare_paper) if with_legend else ""]
+    caption = "\n".join(wrap_caption(text, fmt) for text in below if text)
     n_keys = table.index.nlevels
     if fmt == "md":
         def md(cell: str, strong: bool) -> str:
@@ -415,15 +479,15 @@ def format_table(
                  "|" + "|".join([":---"] * n_keys + ["---:"] * (len(header) - n_keys)) + "|"]
         lines += ["| " + " | ".join(md(c, b) for c, b in zip(cells, flags, strict=True)) + " |"
                   for cells, flags in zip(body, bold, strict=True)]
-        return "\n".join(lines) + "\n\n" + _caption(table) + "\n"
+        return "\n".join(lines) + "\n\n" + caption + "\n"
 
     def tex(cell: str, strong: bool) -> str:
-        return rf"\textbf{{{_latex_escape(cell)}}}" if strong else _latex_escape(cell)
+        return rf"\textbf{{{latex_escape(cell)}}}" if strong else latex_escape(cell)
     lines = [rf"\begin{{tabular}}{{{'l' * n_keys}{'r' * (len(header) - n_keys)}}}", r"\hline",
-             " & ".join(_latex_escape(h) for h in header) + r" \\", r"\hline"]
+             " & ".join(latex_escape(h) for h in header) + r" \\", r"\hline"]
     lines += [" & ".join(tex(c, b) for c, b in zip(cells, flags, strict=True)) + r" \\"
               for cells, flags in zip(body, bold, strict=True)]
-    lines += [r"\hline", r"\end{tabular}", "% " + _latex_escape(_caption(table))]
+    lines += [r"\hline", r"\end{tabular}", caption]
     return "\n".join(lines) + "\n"
 
 
@@ -443,135 +507,3 @@ def failed_runs(results: pd.DataFrame) -> list[str]:
     ids = failed["run_id"] if "run_id" in failed else failed.index.astype(str)
     errors = failed["error"] if "error" in failed else pd.Series("", index=failed.index)
     return [f"failed: {run_id}: {error or 'no reason recorded'}" for run_id, error in zip(ids, errors, strict=True)]
-
-
-# --- paired differences ----------------------------------------------------------------
-
-
-def _paper_difference(row: Mapping[str, str], key: str, a: str, b: str, aliases: Mapping[str, str]) -> float:
-    """The paper's A − B for a cell (NaN where it lacks either figure)."""
-    paper = paper_results().drop_duplicates(list(KEYS))
-    lookup = {tuple(map(str, k)): v
-              for k, v in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
-    cell = {k: row[k] for k in KEYS if k != key}
-    cell["dataset"] = aliases.get(cell.get("dataset", ""), cell.get("dataset", ""))
-    figures = [lookup.get(tuple(dict(cell, **{key: side})[k] for k in KEYS), np.nan) for side in (a, b)]
-    return float(figures[0] - figures[1])
-
-
-def paired_frame(
-    results: pd.DataFrame,
-    a: str,
-    b: str,
-    key: str = "model",
-    value: str = "iou",
-    aliases: Mapping[str, str] | None = None,
-) -> pd.DataFrame:
-    """Per-seed paired differences A − B, summarised per cell.
-
-    Two runs pair when they agree on every key of :data:`PAIR_KEYS` but ``key``
-    and on the seed, ``key`` being ``a`` in one and ``b`` in the other (e.g. the
-    proposed model and the baseline trained on the same split with the same loss).
-
-    Args:
-        results: per-run results (module docstring), with ``segmentation`` and
-            ``profile`` where the runs have them.
-        a, b: the two values of ``key`` compared.
-        key: ``model`` (default) or another key of :data:`PAIR_KEYS`.
-        value: the metric column.
-        aliases: our dataset label → the paper's, for the paper's figures.
-
-    Returns:
-        One row per cell: the other pair keys, ``mean`` and ``std`` (ddof = 1;
-        NaN for one pair) of the differences in points, ``n_pairs``, ``a_wins``
-        (pairs where A's value is higher), ``paper`` (the paper's A − B for the
-        cell; NaN where it has no figure, or for a metric that is not a reading
-        of its IoU). ``attrs``: ``a``, ``b``, ``key``, ``value``.
-
-    Raises:
-        ValueError: bad results (as :func:`aggregate`), an unknown key, or no pair.
-    """
-    if key not in PAIR_KEYS or key == "dataset":
-        raise ValueError(f"cannot pair over {key!r}; one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
-    frame = _validate(results, value, PAIR_KEYS)
-    others = [k for k in PAIR_KEYS if k != key]
-    sides = [frame.loc[frame[key] == side, [*others, "seed", value]] for side in (a, b)]
-    pairs = sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
-    if pairs.empty:
-        raise ValueError(f"no paired runs: no dataset, seed and settings with both {key} {a!r} and {key} {b!r}")
-    pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * 100.0
-    pairs["a_wins"] = pairs[f"{value}_a"] > pairs[f"{value}_b"]
-    grouped = pairs.groupby(others, sort=False)
-    out = grouped["difference"].agg(mean="mean", std=lambda x: x.std(ddof=1), n_pairs="count")
-    out["a_wins"] = grouped["a_wins"].sum().astype(int)
-    out = out.reset_index()
-    compare = value in READINGS
-    out["paper"] = [_paper_difference(row, key, a, b, aliases or {}) if compare else np.nan
-                    for row in out[others].to_dict("records")]
-    out.attrs.update(a=a, b=b, key=key, value=value)
-    return out
-
-
-def _signed(mean: float, std: float, n: int) -> str:
-    if pd.isna(mean):
-        return MISSING
-    return f"{mean:+.2f}" if n < 2 or pd.isna(std) else f"{mean:+.2f} ± {std:.2f}"
-
-
-def format_paired(
-    results: pd.DataFrame,
-    a: str,
-    b: str,
-    key: str = "model",
-    fmt: str = "md",
-    value: str = "iou",
-    aliases: Mapping[str, str] | None = None,
-) -> str:
-    """:func:`paired_frame` as Markdown, LaTeX or CSV text.
-
-    Rows are the pair keys that take more than one value (dataset always), in
-    the paper's order; the others are stated in the caption. Columns: ``A − B``
-    (mean ± std of the per-seed differences, points), ``A > B`` (seeds), and
-    ``paper A − B``.
-    """
-    if fmt not in FORMATS:
-        raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
-    cells = paired_frame(results, a, b, key, value, aliases)
-    others = [k for k in PAIR_KEYS if k != key]
-    varying = [k for k in others if k == "dataset" or cells[k].nunique() > 1]
-    constants = {k: cells[k].iloc[0] for k in others if k not in varying and cells[k].iloc[0] != MISSING}
-    order = [{v: i for i, v in enumerate(_order(cells[k], k, "models"))} for k in varying]
-    cells = cells.iloc[sorted(range(len(cells)),
-                              key=lambda i: [o[cells[k].iloc[i]] for o, k in zip(order, varying, strict=True)])]
-    if fmt == "csv":
-        return cells[[*varying, "mean", "std", "n_pairs", "a_wins", "paper"]].to_csv(index=False)
-    header = [*varying, f"{a} − {b}", f"{a} > {b}", f"paper {a} − {b}"]
-    body = []
-    for _, row in cells.iterrows():
-        paper = MISSING if pd.isna(row["paper"]) else f"{row['paper']:+.2f}"
-        body.append([str(row[k]) for k in varying] + [_signed(row["mean"], row["std"], row["n_pairs"]),
-                                                      f"{row['a_wins']} of {row['n_pairs']}", paper])
-    caption = _paired_caption(a, b, key, value, constants)
-    if fmt == "md":
-        lines = ["| " + " | ".join(header) + " |",
-                 "|" + "|".join([":---"] * len(varying) + ["---:"] * 3) + "|"]
-        lines += ["| " + " | ".join(cells_) + " |" for cells_ in body]
-        return "\n".join(lines) + "\n\n" + caption + "\n"
-    lines = [rf"\begin{{tabular}}{{{'l' * len(varying)}rrr}}", r"\hline",
-             " & ".join(_latex_escape(h) for h in header) + r" \\", r"\hline"]
-    lines += [" & ".join(_latex_escape(c) for c in cells_) + r" \\" for cells_ in body]
-    lines += [r"\hline", r"\end{tabular}", "% " + _latex_escape(caption)]
-    return "\n".join(lines) + "\n"
-
-
-def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str, str]) -> str:
-    reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
-    text = (f"{a} − {b} in points of {value} (%){reading}: per split seed, the difference between two runs that "
-            f"differ only in {key} (same dataset, seed and settings); mean ± std over the seeds (std with ddof = 1); "
-            f"{a} > {b}: seeds where {a} scores higher. Paper: the published {a} − {b} for the same cell "
-            f"(a UNet's segmentation, the paper's own training; SPEC §7)"
-            + ("" if value in READINGS else f"; none for {value}, which is not a reading of the paper's IoU") + ".")
-    if constants:
-        text += " " + "; ".join(f"{k}: {SEGMENTATION_WORDS.get(v, v) if k == 'segmentation' else v}"
-                                for k, v in constants.items()) + "."
-    return text

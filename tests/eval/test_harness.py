@@ -490,3 +490,30 @@ def test_a_profile_or_dataset_may_ask_for_the_pool_dictionary(data, tmp_path, ca
     err = capsys.readouterr().err
     assert "profiles.smoke.dictionary" in err and "'all'" in err
     assert "datasets.worldcup2014" in err and "dictionary: pool searches the dataset's own pool" in err
+
+
+def test_ten_seeds_split_bench_and_table_with_the_all_background_floor(smoke_stores, tmp_path, capsys):
+    """`split --seeds 0-9` then `bench --seeds 0-9` at smoke size; the iou_weighted table states its floor."""
+    from synthcal.data import load_split
+
+    smoke_stores.copy(["intersection-1"], tmp_path / "data")
+    store = tmp_path / "data" / "intersection-1.zarr"
+    results = tmp_path / "results"
+    assert bench(tmp_path / "data", results, "identity", seeds="0-9") == 2  # not drawn yet: says how
+    assert "synthcal split" in capsys.readouterr().err
+    assert main(["split", str(store), "--seeds", "0-9"]) == 0
+    assert bench(tmp_path / "data", results, "identity", seeds="0-9") == 0
+    out = capsys.readouterr().out
+    assert "10 runs (0 failed)" in out and "over 10 seeds" in out and "iou (%)" in out  # iou: the default
+    assert "floor" not in out  # the default reading has none worth stating
+    assert main(["table", str(results), "--metric", "iou_weighted"]) == 0
+    floor = [line for line in capsys.readouterr().out.splitlines() if line.startswith("all-background floor: ")]
+    # Independently: per seed, the mean over scored test images of (background share of the true view)².
+    frame = collect_results(results)
+    per_seed = []
+    for seed, run_id in zip(frame["seed"], frame["run_id"], strict=True):
+        scored = pd.read_csv(results / "runs" / run_id / "metrics.csv").dropna(subset=["iou_weighted"])
+        test = load_split(store, "test", int(seed))
+        truths = test.semantics[np.isin(test.indices, scored["pool_index"])]
+        per_seed.append(np.mean([np.mean(t == 0) ** 2 for t in truths]))
+    assert floor == [f"all-background floor: {100 * np.mean(per_seed):.2f}"]

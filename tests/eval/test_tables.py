@@ -8,9 +8,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from synthcal.eval.tables import KEYS, aggregate, failed_runs, format_table, paper_results, table_frame
+from synthcal.eval.tables import CAPTION_WIDTH, KEYS, aggregate, failed_runs, format_table, paper_results, table_frame
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def flat(text):
+    """The text with its line breaks as spaces (captions are wrapped)."""
+    return " ".join(text.split())
 
 
 def runs(rows, complete=None):
@@ -53,13 +58,16 @@ def test_aggregate_mean_and_sample_std_by_hand():
 def test_markdown_matching_table():
     text = format_table(MATCHING, "matching")
     lines = text.splitlines()
-    assert lines[0] == "| dataset | loss | mse | mse (complete %) | top-mse | top-mse (complete %) |"
+    assert lines[0] == "| dataset | loss | mse | top-mse |"  # no completeness columns
     # Paper order: worldcup2014 first; losses top-mse before mse.
-    assert lines[2] == "| worldcup2014 | top-mse | 50.00 | 100.0 | – | – |"  # one seed: mean alone; missing: "–"
-    assert lines[3] == "| intersection-1 | top-mse | 82.00 ± 2.00 | 100.0 | **87.00 ± 2.65** | 100.0 |"
-    assert lines[4] == "|  | mse | **71.00 ± 1.00** | 100.0 | 60.00 ± 0.00 | 80.0 |"  # completeness beside each mean
-    assert "model: proposed; training: end-to-end" in text  # constant keys go to the caption
-    assert text.splitlines()[-1].startswith("iou (%) — the paper's IoU read as the mean over classes 1-3")
+    assert lines[2] == "| worldcup2014 | top-mse | 50.00 | – |"  # one seed: mean alone; missing: "–"
+    assert lines[3] == "| intersection-1 | top-mse | 82.00 ± 2.00 | **87.00 ± 2.65** |"
+    assert lines[4] == "|  | mse | **71.00 ± 1.00** | 60.00 ± 0.00 † |"  # the one cell under 100 % is marked
+    caption = flat(text[text.index("\n\n"):])
+    assert "†: fewer than all test images got a valid estimate" in caption
+    assert "valid estimate, mean over seeds): top-mse in intersection-1 / mse: 80.0 %." in caption
+    assert "model: proposed; training: end-to-end" in caption  # constant keys go to the caption
+    assert caption.startswith("† complete") and "iou (%) — the paper's IoU read as the mean over classes 1-3" in caption
 
 
 def test_bold_ties_share_and_single_values_are_not_bold():
@@ -71,7 +79,7 @@ def test_bold_ties_share_and_single_values_are_not_bold():
 
 def test_paper_comparison_joins_the_published_figure():
     text = format_table(MATCHING, "matching", compare_paper=True)
-    assert "| intersection-1 | top-mse | 82.00 ± 2.00 | 100.0 | 87.11 | **87.00 ± 2.65** | 100.0 | 87.42 |" in text
+    assert "| intersection-1 | top-mse | 82.00 ± 2.00 | 87.11 | **87.00 ± 2.65** | 87.42 |" in text
     models = runs([
         ("worldcup2014", "sha2020", "step-by-step", "dice", "top-mse", [0.80, 0.81]),
         ("worldcup2014", "proposed", "step-by-step", "dice", "top-mse", [0.82, 0.83]),
@@ -103,10 +111,12 @@ def test_layouts_select_datasets_and_columns():
 
 def test_latex_and_csv():
     tex = format_table(MATCHING, "matching", fmt="latex")
-    assert r"\begin{tabular}{llrrrr}" in tex
-    assert r"intersection-1 & top-mse & 82.00 $\pm$ 2.00 & 100.0 & \textbf{87.00 $\pm$ 2.65} & 100.0 \\" in tex
-    assert r"& mse & \textbf{71.00 $\pm$ 1.00} & 100.0 & 60.00 $\pm$ 0.00 & 80.0 \\" in tex
-    assert "complete \\%: share of test images with a valid estimate" in tex
+    assert r"\begin{tabular}{llrr}" in tex
+    assert r"intersection-1 & top-mse & 82.00 $\pm$ 2.00 & \textbf{87.00 $\pm$ 2.65} \\" in tex
+    assert r"& mse & \textbf{71.00 $\pm$ 1.00} & 60.00 $\pm$ 0.00 $^\dagger$ \\" in tex
+    caption = [line for line in tex.splitlines() if line.startswith("%")]
+    assert caption and all(len(line) <= CAPTION_WIDTH + 20 for line in caption)  # wrapped before escaping
+    assert "share of test images with a valid estimate" in flat(" ".join(line[2:] for line in caption))
     assert "–" not in tex and "±" not in tex  # written "--" and "$\pm$"
     long = pd.read_csv(io.StringIO(format_table(MATCHING, "matching", fmt="csv", compare_paper=True)))
     assert list(long.columns) == ["dataset", "loss", "matching_score", "mean", "std", "n_seeds", "completeness",
@@ -124,8 +134,9 @@ def test_latex_and_csv():
 def test_missing_optional_keys_show_a_dash():
     simple = pd.DataFrame({"dataset": "intersection-3", "model": ["identity", "template"] * 2,
                            "seed": [0, 0, 1, 1], "iou": [0.1, 0.5, 0.2, 0.6]})
-    # No completeness column in the results: "–" beside each mean.
-    assert "| intersection-3 | 15.00 ± 7.07 | – | **55.00 ± 7.07** | – |" in format_table(simple, "models")
+    # No completeness column in the results: no mark, no footnote.
+    text = format_table(simple, "models")
+    assert "| intersection-3 | 15.00 ± 7.07 | **55.00 ± 7.07** |" in text and "† complete" not in text
 
 
 @pytest.mark.parametrize("change, message", [
@@ -153,8 +164,8 @@ def test_every_reading_of_the_papers_iou_compares_and_is_named(reading, words):
     frame = MATCHING.assign(**{reading: MATCHING["iou"] / 2})
     text = format_table(frame, "matching", value=reading, compare_paper=True)
     # Our halved means beside the same published figures; the caption names the reading.
-    assert "| intersection-1 | top-mse | 41.00 ± 1.00 | 100.0 | 87.11 | **43.50 ± 1.32** | 100.0 | 87.42 |" in text
-    assert text.splitlines()[-1].startswith(f"{reading} (%) — ") and words in text.splitlines()[-1]
+    assert "| intersection-1 | top-mse | 41.00 ± 1.00 | 87.11 | **43.50 ± 1.32** | 87.42 |" in text
+    assert f"\n{reading} (%) — " in text and words in flat(text)
 
 
 def test_failed_runs_are_listed_with_their_reason():
@@ -172,13 +183,13 @@ def test_compare_paper_caption_says_profile_segmentation_and_budget():
     budget = "step-by-step Siamese 10, STN 24 epochs; 1500 train images; at 128 × 72; stn template retrieved"
     models = runs([("intersection-1", m, "step-by-step", "top-mse", "top-mse", [0.6, 0.62]) for m in
                    ("sha2020", "proposed")]).assign(profile="quick", segmentation="ground-truth", budget=budget)
-    caption = format_table(models, "models", compare_paper=True).splitlines()[-1]
+    caption = flat(format_table(models, "models", compare_paper=True))
     assert (f"Ours: profile quick; segmentation: the true semantic maps (ground-truth); training: {budget}."
             in caption)
     assert "Paper: the published figure, from a UNet's segmentation and the paper's own full training" in caption
     # Without the paper's figures, the conditions still show; the paper's do not.
-    assert "Paper:" not in format_table(models, "models").splitlines()[-1]
-    unet = format_table(models.assign(segmentation="unet"), "models", fmt="latex").splitlines()[-1]
+    assert "Paper:" not in format_table(models, "models")
+    unet = flat(format_table(models.assign(segmentation="unet"), "models", fmt="latex").replace("\n% ", " "))
     assert r"segmentation: a UNet's segmentation" in unet and r"128 $\times$ 72" in unet
 
 
@@ -202,7 +213,7 @@ def test_estimators_that_do_not_train_show_no_training_keys():
                               "training": None, "loss": None, "matching_score": None, "seed": [0, 0, 1, 1],
                               "iou": [0.1, 0.5, 0.2, 0.6], "budget": None})
     text = format_table(untrained, "models", compare_paper=True)
-    caption = text.splitlines()[-1]
+    caption = flat(text[text.index("\n\n"):])
     for key in ("training", "loss", "matching_score"):
         assert key not in text.splitlines()[0] and f"{key}: " not in caption
     assert "Ours:" not in caption  # no profile, segmentation or budget recorded
@@ -233,7 +244,7 @@ def paired_runs():
 
 
 def test_paired_differences_by_hand():
-    from synthcal.eval.tables import paired_frame
+    from synthcal.eval.statistics import paired_frame
 
     cells = paired_frame(paired_runs(), "proposed", "sha2020").set_index("loss")
     top = cells.loc["top-mse"]
@@ -249,8 +260,64 @@ def test_paired_differences_by_hand():
     assert paired_frame(partial, "proposed", "sha2020").set_index("loss").loc["top-mse", "n_pairs"] == 4
 
 
+def test_paired_t_interval_and_p_agree_with_scipys_paired_t_test():
+    from scipy import stats
+
+    from synthcal.eval.statistics import paired_frame
+
+    top = paired_frame(paired_runs(), "proposed", "sha2020").set_index("loss").loc["top-mse"]
+    test = stats.ttest_rel(np.multiply(PROPOSED, 100), np.multiply(BASELINE, 100))
+    interval = test.confidence_interval(0.95)
+    assert (top["t_low"], top["t_high"], top["p"]) == pytest.approx((interval.low, interval.high, test.pvalue))
+    # Closed form too: mean ± t_{0.975, 4} · sd / √5.
+    half = stats.t.ppf(0.975, 4) * np.sqrt(12.8 / 4) / np.sqrt(5)
+    assert top["t_high"] - top["mean"] == pytest.approx(half)
+    assert np.isnan(top["boot_low"])  # no per-image scores given: no bootstrap
+
+
+def per_image_scores(n_images, seeds=5, shift=0.02, rng_seed=1):
+    """Per-image scores of two runs per seed (B's = A's − shift + noise) and a reader over them."""
+    rng = np.random.default_rng(rng_seed)
+    scores = {}
+    for seed in range(seeds):
+        a = rng.uniform(0.5, 0.9, n_images)
+        scores[f"a{seed}"] = pd.Series(a, index=np.arange(n_images) * 3)
+        scores[f"b{seed}"] = pd.Series(np.clip(a - shift + rng.normal(0, 0.1, n_images), 0, 1),
+                                       index=np.arange(n_images) * 3)
+    frame = pd.DataFrame([dict(dataset="intersection-1", model=m, seed=s, iou=scores[f"{m[0]}{s}"].mean(),
+                               run_id=f"{m[0]}{s}") for s in range(seeds) for m in ("aa", "bb")])
+    return frame, scores.get
+
+
+def test_bootstrap_interval_contains_the_mean_shrinks_with_images_and_is_reproducible():
+    from synthcal.eval.statistics import BOOTSTRAP_RESAMPLES, format_paired, paired_frame
+
+    widths = []
+    for n_images in (20, 500):
+        frame, reader = per_image_scores(n_images)
+        cell = paired_frame(frame, "aa", "bb", per_image=reader).iloc[0]
+        assert cell["boot_low"] < cell["mean"] < cell["boot_high"]
+        widths.append(cell["boot_high"] - cell["boot_low"])
+        again = paired_frame(frame, "aa", "bb", per_image=reader).iloc[0]
+        assert (again["boot_low"], again["boot_high"]) == (cell["boot_low"], cell["boot_high"])
+    assert widths[1] < widths[0] / 3  # ~√25 = 5 times narrower with 25 times the images
+    text = format_paired(frame, "aa", "bb", per_image=reader)
+    assert f"{BOOTSTRAP_RESAMPLES} resamples" in flat(text) and "95 % CI (bootstrap)" in text.splitlines()[0]
+
+
+def test_one_seed_has_an_undefined_t_interval_but_a_bootstrap():
+    from synthcal.eval.statistics import format_paired, paired_frame
+
+    frame, reader = per_image_scores(50, seeds=1)
+    cell = paired_frame(frame, "aa", "bb", per_image=reader).iloc[0]
+    assert np.isnan(cell["t_low"]) and np.isnan(cell["p"]) and cell["boot_low"] < cell["mean"] < cell["boot_high"]
+    row = format_paired(frame, "aa", "bb", per_image=reader).splitlines()[2].split(" | ")
+    assert row[2] == "undefined (1 seed)" and row[3].startswith("[") and row[4] == "–" and "nan" not in row
+    assert row[5] == f"{int(cell['a_wins'])} of 1"
+
+
 def test_paired_over_another_key_and_other_metrics():
-    from synthcal.eval.tables import format_paired, paired_frame
+    from synthcal.eval.statistics import format_paired, paired_frame
 
     cells = paired_frame(paired_runs(), "top-mse", "mse", key="loss").set_index("model")
     assert cells.loc["proposed", "mean"] == pytest.approx(np.mean(np.subtract(PROPOSED, [.60, .61, .62, .63, .64]))
@@ -258,7 +325,7 @@ def test_paired_over_another_key_and_other_metrics():
     assert cells.loc["proposed", "paper"] == pytest.approx(87.91 - 85.65)
     frame = paired_runs().assign(iou_part=lambda f: f["iou"] / 2)
     text = format_paired(frame, "proposed", "sha2020", value="iou_part")
-    assert "| intersection-1 | top-mse | +0.90 ± 0.89 | 4 of 5 | – |" in text  # no paper figure for iou_part
+    assert "| intersection-1 | top-mse | +0.90 ± 0.89 | [-0.21, +2.01] | – | 0.088 | 4 of 5 | – |" in text
     with pytest.raises(ValueError, match="no paired runs"):
         paired_frame(paired_runs(), "proposed", "nobody")
 
@@ -274,20 +341,24 @@ def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
         run = {"dataset": row["dataset"], "model": row["model"], "estimator": estimator, "seed": row["seed"],
                "training": row["training"], "loss": row["loss"], "matching": row["matching_score"],
                "segmentation": None if pd.isna(row["training"]) else row["segmentation"], "profile": "quick"}
-        # The default reading (iou_weighted) carries the same figures as iou here.
         summary = {"iou": row["iou"], "iou_weighted": row["iou"], "completeness": 1.0, "n_images": 8,
                    "iou_part": row["iou"] / 2}
         (folder / "run.json").write_text(json.dumps({"run": run, "id": run_id, "status": "ok", "summary": summary}))
+        # Per image: the run's mean on 7 of 8 images, the 8th skipped (NaN), as metrics.csv stores them.
+        pd.DataFrame({"pool_index": np.arange(8) + 10, "iou": [row["iou"]] * 7 + [np.nan]}).to_csv(
+            folder / "metrics.csv", index=False)
     assert main(["table", str(tmp_path), "--paired", "proposed", "baseline"]) == 0  # baseline: sha2020's estimator
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0] == "| dataset | loss | proposed − sha2020 | proposed > sha2020 | paper proposed − sha2020 |"
-    assert lines[2] == "| intersection-1 | top-mse | +1.80 ± 1.79 | 4 of 5 | +1.97 |"
-    assert lines[3] == "| intersection-1 | mse | -1.00 ± 0.00 | 0 of 5 | +1.24 |"
+    assert lines[0] == ("| dataset | loss | proposed − sha2020 | 95 % CI (t) | 95 % CI (bootstrap) | p | "
+                        "proposed > sha2020 | paper proposed − sha2020 |")
+    # Every image of a run scores its mean: the bootstrap has no spread to find.
+    assert lines[2] == "| intersection-1 | top-mse | +1.80 ± 1.79 | [-0.42, +4.02] | [+1.80, +1.80] | 0.088 | 4 of 5 | +1.97 |"
+    assert lines[3].startswith("| intersection-1 | mse | -1.00 ± 0.00 | [-1.00, -1.00] | [-1.00, -1.00] | < 0.001 |")
     assert main(["table", str(tmp_path), "--paired", "proposed", "identity", "--metric", "iou_part",
                  "--format", "csv"]) == 0
     csv = pd.read_csv(io.StringIO(capsys.readouterr().out)).set_index("loss")
     assert csv.loc["top-mse", "mean"] == pytest.approx((np.mean(PROPOSED) - 0.1) * 50)
-    assert csv["paper"].isna().all()
+    assert csv["paper"].isna().all() and csv["boot_low"].isna().all()  # metrics.csv has no iou_part
     assert main(["table", str(tmp_path), "--paired", "loss=top-mse", "loss=mse"]) == 0
     out = capsys.readouterr().out
     assert "| top-mse − mse |" in out and "identity" not in out  # a reference has no loss to pair over
@@ -299,9 +370,94 @@ def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
     assert main(["table", str(tmp_path), "--paired", "proposed", "identity"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("| dataset | loss | segmentation | proposed − identity |")
-    assert "| intersection-1 | top-mse | unet | +60.00 | 1 of 1 | – |" in lines
+    assert "| intersection-1 | top-mse | unet | +60.00 | undefined (1 seed) | [+60.00, +60.00] | – | 1 of 1 | – |" in lines
     assert main(["table", str(tmp_path), "--paired", "proposed", "nobody"]) == 2
     assert main(["table", str(tmp_path), "--paired", "proposed", "loss=mse"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert err[0].startswith("synthcal: error: --paired: no runs with model 'nobody'; present: ")
     assert err[1] == "synthcal: error: --paired: both sides must vary the same key (value 'proposed loss=mse')"
+
+
+# --- issue 25 item 6: the all-background floor ---------------------------------------------
+
+
+def test_background_floor_is_sklearns_weighted_jaccard_of_an_all_background_estimate():
+    from sklearn.metrics import jaccard_score
+
+    from synthcal.eval.statistics import background_floor
+
+    rng = np.random.default_rng(3)
+    truths = rng.choice(4, size=(4, 6, 9), p=[0.6, 0.2, 0.15, 0.05]).astype(np.uint8)
+    truths[1] = 0  # a view of background only: the estimate is right
+    truths[2, :, :4] = 2  # and one with a lot of class 2
+    zeros = np.zeros(truths.shape[1:], np.uint8)
+    expected = np.mean([jaccard_score(t.ravel(), zeros.ravel(), average="weighted") for t in truths])
+    assert background_floor(truths, "iou_weighted") == pytest.approx(expected)
+    assert background_floor(truths, "iou_weighted") == pytest.approx(np.mean([np.mean(t == 0) ** 2 for t in truths]))
+    assert background_floor(truths[[0, 2, 3]], "iou") == 0.0  # no foreground predicted
+    with pytest.raises(ValueError, match="iou_part"):
+        background_floor(truths, "iou_part")
+
+
+def test_iou_weighted_tables_print_the_floor_on_a_line_of_its_own():
+    frame = MATCHING.assign(iou_weighted=MATCHING["iou"])
+    lines = format_table(frame, "matching", value="iou_weighted", floors={"intersection-1": 52.871}).splitlines()
+    assert "all-background floor: intersection-1 52.87" in lines  # two datasets: named
+    one = frame[frame["dataset"] == "intersection-1"]
+    assert "all-background floor: 52.87" in format_table(one, "matching", floors={"intersection-1": 52.871})
+    assert "floor" not in format_table(one, "matching")
+
+
+# --- issue 24 item 5: tables a person can read -------------------------------------------
+
+
+def test_plurals_and_one_seed():
+    from synthcal.eval.tables import counted
+
+    assert (counted(1, "seed"), counted(2, "run"), counted(0, "run")) == ("1 seed", "2 runs", "0 runs")
+    one = MATCHING[MATCHING["dataset"] == "worldcup2014"]
+    text = flat(format_table(one, "matching"))
+    assert "over 1 seed." in text and "1 seeds" not in text
+
+
+def test_segmentation_is_said_of_the_models_that_read_it():
+    models = runs([("intersection-1", m, "step-by-step", "top-mse", "top-mse", [0.6, 0.62]) for m in
+                   ("sha2020", "proposed", "sift")]).assign(segmentation="ground-truth")
+    models.loc[models["model"] == "sift", ["segmentation", "training", "loss", "matching_score"]] = None
+    text = flat(format_table(models, "models"))
+    assert "segmentation: the true semantic maps (ground-truth) (read by sha2020, proposed only)" in text
+    assert "read by" not in flat(format_table(models[models["model"] != "sift"], "models"))
+
+
+def test_a_report_states_the_legend_once_wrapped(tmp_path):
+    from synthcal.eval.report import results_tables
+
+    frame = pd.concat([paired_runs(), paired_runs().assign(profile="smoke")], ignore_index=True)
+    blocks = list(results_tables(frame, None, "md", False, "iou"))
+    text = "".join(blocks)
+    assert text.count("### ") == 2 and flat(text).count("Cells: mean ± std over seeds") == 1
+    assert max(len(line) for line in text.splitlines() if not line.startswith("|")) <= CAPTION_WIDTH
+
+
+def test_an_entry_points_name_wins_over_a_dotted_path_to_the_same_class(monkeypatch):
+    from importlib.metadata import EntryPoint
+
+    from synthcal.estimators import registry
+    from synthcal.eval.report import one_label, results_tables
+
+    real = registry.estimator_entry_points()
+    fake = EntryPoint(name="ordered", value="collections:OrderedDict", group=registry.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "estimator_entry_points", lambda: [*real, fake])
+    rows = pd.DataFrame({"dataset": "intersection-1", "seed": [0, 1, 0, 1, 0, 1],
+                         "model": ["ordered", "ordered", "OrderedDict", "OrderedDict", "identity", "identity"],
+                         "estimator": ["ordered"] * 2 + ["collections:OrderedDict"] * 2 + ["identity"] * 2,
+                         "iou": [0.5, 0.6, 0.5, 0.6, 0.1, 0.1], "run_id": list("abcdef"), "training": None,
+                         "loss": None, "matching_score": None, "segmentation": None, "profile": None})
+    labelled = one_label(rows)
+    assert sorted(labelled["model"]) == ["identity", "identity", "ordered", "ordered"]
+    assert list(labelled["run_id"]) == list("abef")  # the entry point's runs kept
+    # A path run alone (no run under the entry point) is relabelled, not dropped.
+    alone = one_label(rows[rows["estimator"] != "ordered"])
+    assert list(alone["model"]) == ["ordered", "ordered", "identity", "identity"]
+    table = "".join(results_tables(rows, "models", "md", False, "iou"))
+    assert table.splitlines()[0] == "| dataset | identity | ordered |"  # one column each

@@ -4,13 +4,14 @@
   irreducible work of one step — STN forward, :func:`synthcal.models.compose_homography`,
   the bilinear warp of the anti-aliased scene (``scene_downsample`` 4 of a
   1,300 × 1,900 map), ``L_Top-MSE`` against the target view, backward, Adam —
-  on pre-made tensors (the batch's 8-channel input, its template homographies and
-  its target view, all made before the clock starts). synthcal's step is
-  :func:`synthcal.training.train_stn` on a train split of ``batches × batch``
-  items over ``epochs`` epochs (true maps, ``segmentation: ground-truth``), the
-  whole call timed and divided by its number of steps, so whatever it does once
-  per fit is spread over the epochs as in a real run. Both start from the same
-  weights. Target ≤ 1.1.
+  on pre-made tensors (each batch's 8-channel input, template homographies and
+  target view, made before the clock starts), in the order synthcal visits them.
+  synthcal's step is :func:`synthcal.training.train_stn` on the same split of
+  ``batches × batch`` items over ``epochs`` epochs (true maps, ``segmentation:
+  ground-truth``), the whole call timed and divided by its number of steps, so
+  whatever it does once per fit is spread over the epochs as in a real run. Both
+  start from the same weights and end with the same weights (printed: ``same
+  weights``). Target ≤ 1.1.
 * Training throughput (samples/s) of the UNet and the Siamese (bare steps: forward,
   loss, backward, Adam on pre-made tensors; the Siamese counts pairs) and of both
   STNs (synthcal's step, from the ratio measurement, and the bare loop's).
@@ -84,23 +85,33 @@ def training_data(n: int, size: tuple[int, int], n_templates: int = 64) -> Train
                         work_size=size)
 
 
-def bare_stn_loop(stn: nn.Module, data: TrainingData, batch: int, steps: int) -> Callable[[], None]:
-    """``steps`` bare training steps of ``stn`` on one pre-made batch (module docstring)."""
-    index = torch.arange(batch)
-    template = data.match[index]
-    x = torch.cat([one_hot_maps(data.semantics[index]), one_hot_maps(data.templates[template])], dim=1)
-    template_H = data.template_homographies[template]
-    scene, frame, size = data.scene, data.scene_frame, data.work_size
-    target = warp_semantic(scene, data.homographies[index] @ frame, size)
-    criterion = warp_loss("top_mse")
-    optimiser = torch.optim.Adam(stn.parameters(), lr=LR)
+def bare_stn_loop(initial: nn.Module, data: TrainingData, batch: int, epochs: int) -> Callable[[], nn.Module]:
+    """Bare training of a copy of ``initial`` (module docstring); returns the trained copy.
 
-    def run() -> None:
-        for _ in range(steps):
+    Its steps are made before the clock starts, in the order
+    :func:`synthcal.training.train_stn` visits them (seed 0), so both follow the same
+    trajectory: the cost of Adam's update depends on it (denormal moments).
+    """
+    scene, frame, size = data.scene, data.scene_frame, data.work_size
+    generator = torch.Generator().manual_seed(0)
+    steps = []
+    for _ in range(epochs):
+        for index in torch.randperm(len(data), generator=generator).split(batch):
+            template = data.match[index]
+            x = torch.cat([one_hot_maps(data.semantics[index]), one_hot_maps(data.templates[template])], dim=1)
+            target = warp_semantic(scene, data.homographies[index] @ frame, size)
+            steps.append((x, data.template_homographies[template], target))
+    criterion = warp_loss("top_mse")
+
+    def run() -> nn.Module:
+        stn = copy.deepcopy(initial).train()
+        optimiser = torch.optim.Adam(stn.parameters(), lr=LR)
+        for x, template_H, target in steps:
             optimiser.zero_grad(set_to_none=True)
             H = compose_homography(stn(x), template_H, size)
             criterion(warp_semantic(scene, H @ frame, size), target).backward()
             optimiser.step()
+        return stn
 
     return run
 
@@ -115,19 +126,22 @@ def bench_stn(size: tuple[int, int], batch: int, batches: int, epochs: int, repe
     for name, cls in (("baseline", BaselineSTN), ("proposed", ProposedSTN)):
         torch.manual_seed(0)
         initial = cls(8, image_size=size)
-        bare_loop = bare_stn_loop(copy.deepcopy(initial), data, batch, steps)
-        bare_loop()  # warm-up: the first calls of a network set up its kernels
+        bare_loop = bare_stn_loop(initial, data, batch, epochs)
 
-        def ours_loop(initial: nn.Module = initial) -> None:
-            train_stn(copy.deepcopy(initial), data, None, "top-mse", epochs, batch, LR, torch.device("cpu"))
+        def ours_loop(initial: nn.Module = initial) -> nn.Module:
+            return train_stn(copy.deepcopy(initial), data, None, "top-mse", epochs, batch, LR, torch.device("cpu"))
 
+        # Warm-up (the first calls of a network set up its kernels), and the check that
+        # both loops did the same training.
+        same = all(torch.equal(a, b) for a, b in zip(bare_loop().state_dict().values(),
+                                                     ours_loop().state_dict().values(), strict=True))
         # Rounds alternate so that a burst of load on the shared machine hits both.
         rounds = [(best_of(1, bare_loop), best_of(1, ours_loop)) for _ in range(repeat)]
         bare, ours = (min(times) / steps for times in zip(*rounds, strict=True))
         rates[f"{name} STN (synthcal)"] = batch / ours
         rates[f"{name} STN (bare)"] = batch / bare
         print(f"{name:8s} bare {bare * 1e3:7.1f} ms/step | synthcal {ours * 1e3:7.1f} ms/step | "
-              f"ratio {ours / bare:5.3f}")
+              f"ratio {ours / bare:5.3f} | same weights: {same}")
     return rates
 
 

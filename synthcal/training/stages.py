@@ -247,12 +247,14 @@ class StnExamples:
 
     def _make(self, index: Tensor) -> tuple[Tensor, Tensor]:
         """Items ``index``: (B, 8, h, w) inputs (uint8 when one-hot) and (B, 4, h, w) target views."""
-        maps = input_maps(self.data, index, self.unet, self.device)
+        if self.unet is None:  # exact in uint8, a quarter of the bytes to keep
+            maps = one_hot_maps(self.data.semantics[index].to(self.device), NUM_CLASSES, torch.uint8)
+        else:
+            maps = input_maps(self.data, index, self.unet, self.device)
         template = one_hot_maps(self.data.templates[self.templates[index]].to(self.device), NUM_CLASSES, maps.dtype)
         with torch.no_grad():
             target = self.warp(self.data.homographies[index].to(self.device))
-        inputs = torch.cat([maps, template], dim=1)
-        return (inputs.to(torch.uint8) if self.unet is None else inputs), target
+        return torch.cat([maps, template], dim=1), target
 
     def warp(self, H: Tensor) -> Tensor:
         """(B, 4, h, w) views of the loss's scene through (B, 3, 3) working-resolution homographies ``H``."""

@@ -1,4 +1,4 @@
-"""Speed of ground-truth matching, embedding search and model training.
+"""Speed of ground-truth matching and embedding search.
 
 Every speed-up is a ratio against a baseline measured in the same run (the
 machine is shared and noisy):
@@ -11,10 +11,9 @@ machine is shared and noisy):
   class-id code and the reduced-precision exact GEMM buy);
 * embedding search of 500 queries in 200,000 random embeddings of the Siamese's
   dimension with :func:`synthcal.models.siamese.nearest_embeddings`, per query,
-  against a per-query brute-force loop on a subset;
-* training throughput (samples/s, CPU, batch 8, 256 × 144) of the UNet, the
-  Siamese (pairs/s) and each STN (STN + compose + bilinear warp of a
-  1,300 × 1,900 scene + ``L_Top-MSE``).
+  against a per-query brute-force loop on a subset.
+
+Training throughput is measured by ``benchmarks/training.py``.
 
 Run: .venv/bin/python benchmarks/matching.py [--quick]
 """
@@ -25,24 +24,14 @@ import argparse
 import time
 from collections.abc import Callable
 
-import numpy as np
 import torch
 
-from synthcal.generate.camera import homography
 from synthcal.models import (
-    BaselineSTN,
-    ProposedSTN,
-    SiameseNet,
-    UNet,
-    compose_homography,
-    contrastive_loss,
     match_ground_truth,
     mse_loss,
     nearest_embeddings,
     one_hot_maps,
-    segmentation_loss,
     top_mse_loss,
-    warp_semantic,
 )
 from synthcal.models.losses import ALPHA, BETA, CLASS_REDUCTION, GRID
 from synthcal.models.matching import Encoded, encoded_scores
@@ -115,48 +104,6 @@ def bench_search(n_queries: int, n_dictionary: int, sub_queries: int, dim: int) 
           f"(on {sub_queries}) | speed-up {brute_query / fast:5.0f}x | argmin agrees on {float(agree):.0%}")
 
 
-def throughput(name: str, module: torch.nn.Module, step: Callable[[], torch.Tensor], samples: int,
-               steps: int) -> None:
-    optimiser = torch.optim.Adam(module.parameters(), lr=1e-4)
-
-    def one_step() -> None:
-        optimiser.zero_grad()
-        step().backward()
-        optimiser.step()
-
-    one_step()  # warm-up
-    elapsed = seconds(lambda: [one_step() for _ in range(steps)])
-    print(f"{name:12s} {samples * steps / elapsed:7.1f} samples/s  ({elapsed / steps:.2f} s/step)")
-
-
-def bench_training(steps: int, batch: int = 8) -> None:
-    print(f"\n== training throughput on CPU ({torch.get_num_threads()} threads), batch {batch}, "
-          f"{WIDTH}x{HEIGHT}, Adam, {steps} steps after one warm-up")
-    g = torch.Generator().manual_seed(2)
-    images = torch.rand(batch, 3, HEIGHT, WIDTH, generator=g)
-    ids = blocky_maps(batch, g).long()
-    maps = one_hot_maps(ids)
-    unet = UNet()
-    throughput("UNet", unet, lambda: segmentation_loss(unet(images), ids), batch, steps)
-    siamese = SiameseNet()
-    partners = one_hot_maps(blocky_maps(batch, g))
-    same = torch.arange(batch) % 2 == 0
-    throughput("Siamese", siamese, lambda: contrastive_loss(*siamese(torch.cat([maps, partners])).chunk(2), same),
-               batch, steps)
-    scene = one_hot_maps(torch.randint(0, 4, (1900 // 20, 1300 // 20), generator=g)
-                         .repeat_interleave(20, 0).repeat_interleave(20, 1))
-    # The intersection grid's centre camera (SPEC §3), looking down the scene.
-    template_H = torch.from_numpy(homography(np.zeros(batch), np.full(batch, -15.0), np.full(batch, 250.0),
-                                             np.tile([650.0, 950.0, 80.0], (batch, 1)), (WIDTH, HEIGHT)))
-    x = torch.cat([maps, partners], dim=1)
-    for name, stn in (("BaselineSTN", BaselineSTN(image_size=(WIDTH, HEIGHT))),
-                      ("ProposedSTN", ProposedSTN(image_size=(WIDTH, HEIGHT)))):
-        def step(stn: torch.nn.Module = stn) -> torch.Tensor:
-            H = compose_homography(stn(x), template_H, (WIDTH, HEIGHT))
-            return top_mse_loss(warp_semantic(scene, H, (WIDTH, HEIGHT), "bilinear"), maps)
-        throughput(name, stn, step, batch, steps)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes, for a smoke run")
@@ -164,11 +111,9 @@ def main() -> None:
     if args.quick:
         bench_matching(300, 100, 4, 5)
         bench_search(50, 20_000, 5, 128)
-        bench_training(steps=1)
     else:
         bench_matching(3000, 1000, 20, 10)
         bench_search(500, 200_000, 20, 128)
-        bench_training(steps=3)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """The differentiable bilinear warp: synthcal's own against kornia's ``warp_perspective``.
 
 Every variant warps the same one-hot bird's-eye map (4 × 1,900 × 1,300 float32,
-the size ``benchmarks/matching.py`` trains on) into B views of 256 × 144 through
+the size ``benchmarks/training.py`` trains on) into B views of 256 × 144 through
 random cameras above the scene (float64 homographies), and multiplies by
 synthcal's cheirality mask:
 

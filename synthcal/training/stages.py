@@ -83,6 +83,8 @@ __all__ = [
     "stn_templates",
     "train_unet",
     "train_siamese",
+    "STN_CACHE_BYTES",
+    "StnExamples",
     "train_stn",
     "end_to_end_stage",
     "train_end_to_end",
@@ -206,6 +208,68 @@ def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tenso
     return one_hot_maps(data.templates[index].to(device), NUM_CLASSES)
 
 
+# Bytes of STN inputs and target views :class:`StnExamples` keeps for a whole fit;
+# above it they are made batch by batch. The quick profile (1,500 items at 128 × 72)
+# needs 0.33 GB, the paper's (4,500 at 256 × 144, UNet) 8 GB.
+STN_CACHE_BYTES = 4 * 2**30
+
+
+class StnExamples:
+    """Each train item's STN input and target view, made once per fit (memory permitting).
+
+    Neither changes while the STN trains: the input is the item's map (true one-hot,
+    or the frozen UNet's probabilities) ⊕ its template's one-hot map, the template
+    chosen before the first epoch; the target is the scene warped by the item's true
+    homography. Making them in every batch of every epoch cost ~¼ of a step (issue 22).
+    They are kept on ``device`` while ``len(data) ×`` bytes per item ≤
+    :data:`STN_CACHE_BYTES` (one-hot inputs as uint8, the rest float32), else made
+    per batch; the values are the same either way (items are converted, segmented
+    and warped independently of their batch).
+
+    Args:
+        data: the train split.
+        templates: (K,) the template of each train item.
+        unet: the frozen UNet (eval mode), or None for true maps.
+        device: where the batches go.
+        chunk: items made at a time when caching.
+    """
+
+    def __init__(self, data: TrainingData, templates: Tensor, unet: nn.Module | None, device: torch.device,
+                 chunk: int = 256) -> None:
+        self.data, self.templates, self.unet, self.device = data, templates, unet, device
+        self.scene, self.frame = data.scene.to(device), data.scene_frame.to(device)
+        h, w = data.semantics.shape[-2:]
+        per_item = NUM_CLASSES * h * w * (4 + (2 if unet is None else 8))
+        self.cached: tuple[Tensor, Tensor] | None = None
+        if len(data) * per_item <= STN_CACHE_BYTES:
+            inputs, targets = zip(*(self._make(index) for index in torch.arange(len(data)).split(chunk)), strict=True)
+            self.cached = torch.cat(inputs), torch.cat(targets)
+
+    def _make(self, index: Tensor) -> tuple[Tensor, Tensor]:
+        """Items ``index``: (B, 8, h, w) inputs (uint8 when one-hot) and (B, 4, h, w) target views."""
+        if self.unet is None:  # exact in uint8, a quarter of the bytes to keep
+            maps = one_hot_maps(self.data.semantics[index].to(self.device), NUM_CLASSES, torch.uint8)
+        else:
+            maps = input_maps(self.data, index, self.unet, self.device)
+        template = one_hot_maps(self.data.templates[self.templates[index]].to(self.device), NUM_CLASSES, maps.dtype)
+        with torch.no_grad():
+            target = self.warp(self.data.homographies[index].to(self.device))
+        return torch.cat([maps, template], dim=1), target
+
+    def warp(self, H: Tensor) -> Tensor:
+        """(B, 4, h, w) views of the loss's scene through (B, 3, 3) working-resolution homographies ``H``."""
+        return warp_semantic(self.scene, H @ self.frame, self.data.work_size)
+
+    def batch(self, index: Tensor) -> tuple[Tensor, Tensor]:
+        """Items ``index``: (B, 8, h, w) float32 inputs (map ⊕ template map) and (B, 4, h, w) target views."""
+        if self.cached is None:
+            inputs, targets = self._make(index)
+        else:
+            index = index.to(self.device)
+            inputs, targets = self.cached[0][index], self.cached[1][index]
+        return inputs.float(), targets
+
+
 # --- stages --------------------------------------------------------------------------------
 
 
@@ -324,7 +388,8 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: 
 
     ``templates``: (K,) the template of each train item (:func:`stn_templates`;
     None: the ground-truth ones, ``data.match``). ``class_reduction``: of the
-    MSE-based losses.
+    MSE-based losses. What does not change from batch to batch — each item's
+    input and target view — is made once, before the first epoch (:class:`StnExamples`).
     """
     torch.manual_seed(seed)
     generator = torch.Generator().manual_seed(seed)
@@ -332,17 +397,15 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: 
     optimiser = torch.optim.Adam(stn.parameters(), lr=lr)
     criterion = warp_loss(WARP_LOSS_NAMES[loss], class_reduction)
     chosen = data.match if templates is None else templates
-    scene, frame = data.scene.to(device), data.scene_frame.to(device)
+    examples = StnExamples(data, chosen, unet, device)
+    template_homographies = data.template_homographies[chosen].to(device)
     bar = _epochs(epochs, f"stn {loss}", progress)
     for _ in bar:
         losses: list[float] = []
         for index in _batches(len(data), batch_size, generator):
-            template = chosen[index]
-            maps = torch.cat([input_maps(data, index, unet, device), _templates(data, template, device)], dim=1)
-            H = compose_homography(stn(maps), data.template_homographies[template].to(device), data.work_size)
-            with torch.no_grad():
-                target = warp_semantic(scene, data.homographies[index].to(device) @ frame, data.work_size)
-            value = criterion(warp_semantic(scene, H @ frame, data.work_size), target)
+            inputs, target = examples.batch(index)
+            H = compose_homography(stn(inputs), template_homographies[index.to(device)], data.work_size)
+            value = criterion(examples.warp(H), target)
             losses.append(_step(optimiser, value))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)

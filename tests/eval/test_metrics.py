@@ -289,6 +289,26 @@ def test_a_true_homography_breaking_the_sign_rule_raises_with_the_sample():
     np.testing.assert_allclose(check_truth(7.0 * H_true[0], SIZE), H_true[0] / np.abs(H_true[0]).max())
 
 
+def _nan_entry(H: np.ndarray) -> np.ndarray:
+    H = H.copy()
+    H[1, 2] = np.nan
+    return H
+
+
+@pytest.mark.parametrize("metric", ["iou", "readings", "iou_part", "iou_whole"])
+@pytest.mark.parametrize("truth", [_nan_entry, np.zeros_like], ids=["nan-entry", "zero"])
+def test_every_metric_refuses_invalid_truth(metric, truth):
+    """A NaN in the truth or a zero truth is an error in the data, not a score of 0 (nor a LinAlgError)."""
+    scene = blobs(5)
+    good = perspective(0, -10, 30)
+    score = {"iou": lambda H: iou(scene, good, H, SIZE), "readings": lambda H: readings(scene, good, H, SIZE),
+             "iou_part": lambda H: iou_part(scene.shape, good, H, SIZE),
+             "iou_whole": lambda H: iou_whole(good, H, SIZE)}[metric]
+    assert score(good) == (dict.fromkeys(READINGS, 1.0) if metric == "readings" else 1.0)
+    with pytest.raises(TruthError, match=r"^true homography is not a finite \(3, 3\) matrix"):
+        score(truth(good))
+
+
 @pytest.mark.parametrize("scale", [1e150, 1e-150, 3.0, -1e150])
 def test_scores_do_not_depend_on_the_estimates_scale(scale):
     scene = blobs(5)

@@ -429,7 +429,7 @@ def _bench_limits(config: LoadedConfig, profile: str | None) -> dict[str, int] |
 def _cmd_bench(args: argparse.Namespace) -> int:
     """Exit 0 when every run is ok, 1 when any failed (each printed with its reason), 130 on Ctrl-C."""
     from synthcal.config import load_config
-    from synthcal.eval.harness import check_device, expand_runs, plan_lines, run_sweep
+    from synthcal.eval.harness import check_device, expand_runs, is_finished, plan_lines, run_sweep
     from synthcal.eval.tables import counted
 
     config = load_config(args.config)
@@ -449,10 +449,12 @@ def _cmd_bench(args: argparse.Namespace) -> int:
                        device=args.device, limits=_bench_limits(config, args.profile), dictionary=dictionary)
     print(f"bench: {counted(len(runs), 'run')}, profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
     print("\n".join(plan_lines(runs)), flush=True)
+    reused = 0 if args.rerun else sum(is_finished(args.results, run) for run in runs)
+    print(f"{counted(len(runs), 'run')}: {reused} reused, {len(runs) - reused} to run", flush=True)
     started = time.perf_counter()
     try:
         frame = run_sweep(runs, args.results, scheduler=args.scheduler, progress=_progress(args),
-                          timeout=args.timeout or None)
+                          timeout=args.timeout or None, rerun=args.rerun)
     except KeyboardInterrupt:  # the running run's process is already killed; finished runs stay
         print(f"synthcal: interrupted; finished runs are kept in {args.results}: run the same command again "
               f"to resume", file=sys.stderr)
@@ -723,6 +725,9 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="time limit of each run, which runs in a process of its own; one that exceeds it, "
                         "crashes or exits is recorded as failed and the sweep goes on "
                         f"(default {_DEFAULT_TIMEOUT:g} = 6 h; 0: none)")
+    p.add_argument("--rerun", action="store_true",
+                   help="run every run again, finished ones too (default: reuse the finished runs of the same "
+                        "dataset, settings and estimator code)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_config(p)
     p.set_defaults(func=_cmd_bench)

@@ -14,6 +14,8 @@
   identity, after zeroing ``scene.semantic`` (and the train split's) in ``fit`` by
   any means it can: with the scene's classes gone, every view would score IoU 1.
 * :class:`UnreadableEstimator` — ``predict`` returns an object whose ``__array__`` raises.
+* :class:`SpawningEstimator` — ``predict`` starts ``sleep 600``, writes its PID to the file
+  named by ``$SYNTHCAL_TEST_SPAWNED`` and returns the identity's estimates, leaving it running.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from __future__ import annotations
 import ctypes
 import os
 import signal
+import subprocess
 import time
 from pathlib import Path
 from typing import Any
@@ -119,3 +122,10 @@ class _Unreadable:
 class UnreadableEstimator(IdentityEstimator):
     def predict(self, images: np.ndarray) -> Any:
         return _Unreadable()
+
+
+class SpawningEstimator(IdentityEstimator):
+    def predict(self, images: np.ndarray) -> np.ndarray:
+        helper = subprocess.Popen(["sleep", "600"])
+        Path(os.environ["SYNTHCAL_TEST_SPAWNED"]).write_text(str(helper.pid))
+        return super().predict(images)

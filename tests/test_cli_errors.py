@@ -312,3 +312,25 @@ def test_progress_bars_only_on_a_terminal(tmp_path, capsys, monkeypatch):
     assert "sample" not in err and "%|" not in err, err
     monkeypatch.setattr(sys, "stderr", Terminal())
     assert show_progress() and not show_progress(False)
+
+
+@pytest.mark.parametrize("command", ["scene", "show"])
+def test_a_picture_into_a_read_only_folder_names_the_picture(smoke_stores, tmp_path, monkeypatch, capsys, command):
+    """Issue 23: the error names the output file, never atomic_write's temporary beside it."""
+    import io
+
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    real_open = io.open
+
+    def read_only(file, mode="r", *args, **kwargs):  # what the kernel answers in a read-only folder (as root too)
+        if isinstance(file, (str, os.PathLike)) and Path(file).parent == folder and set(mode) & set("wax+"):
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(file))
+        return real_open(file, mode, *args, **kwargs)
+
+    monkeypatch.setattr(io, "open", read_only)
+    picture = folder / "picture.png"
+    argv = ["scene", "intersection-1"] if command == "scene" else ["show", str(smoke_stores.path("soccer")), "-n", "2"]
+    assert main([*argv, "-o", str(picture)]) == 2
+    assert one_line(capsys.readouterr().err) == f"synthcal: error: {picture}: Permission denied"
+    assert not any(folder.iterdir())

@@ -59,7 +59,9 @@ The option values are defined once, in :mod:`synthcal.config`.
     UNet depends only on the train split and its settings, the Siamese also on
     the dictionary, the matching score and the UNet (or the true maps), so
     step-by-step runs that differ only in the STN or its loss train each of them
-    once. Keys hash the arrays themselves, so a changed split is a new key; the
+    once. Keys hash the arrays themselves and the bundled models' code
+    (:func:`~synthcal.estimators.version.bundled_code_version`), so a changed split
+    or an edited model is a new key; the
     ground-truth matches are keyed by the matching score and ``class_reduction``,
     the Siamese by the matches themselves; the dictionary's embedding by the
     trained Siamese is cached too (``embedding/``, once per dictionary and
@@ -101,6 +103,7 @@ from synthcal.config import (
     TrainingSettings,
 )
 from synthcal.estimators.protocol import SceneLike, SplitLike
+from synthcal.estimators.version import bundled_code_version
 from synthcal.models import (
     BaselineSTN,
     CcbvSTN,
@@ -276,7 +279,9 @@ class PaperEstimator:
         A = torch.from_numpy(resolution_matrix(full_size, work_size))
         images = np.asarray(train.images)[: len(semantics)] if self.uses_unet else None
         homographies = np.asarray(dictionary.homographies, np.float64)
-        keys = {"train": digest(semantics, images if images is not None else 0, full_size, work_size)}
+        # The code is in every stage's key (they all derive from this one): edited models retrain.
+        keys = {"train": digest(bundled_code_version(), semantics, images if images is not None else 0, full_size,
+                                work_size)}
         if isinstance(dictionary.semantics, np.ndarray):  # in memory (a split): as it always was
             full = np.asarray(dictionary.semantics)
             templates = reduce_class_maps(full, work_size)

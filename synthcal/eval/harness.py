@@ -34,11 +34,13 @@ Results layout
     RESULTS/cache/<stage>/<key>.pt      shared trained stages (:mod:`.training`)
 
 ``run-id`` is :attr:`Run.id` (:mod:`synthcal.eval.runs`, "Run ids"): readable
-keys, then a hash of every setting that changes the result.
+keys, then a hash of every setting that changes the result, and of the
+estimator's code (an edited plug-in is a new run).
 Both files are written atomically, ``run.json`` last: a run is *finished* when
 its ``run.json`` is readable and says ``ok``, and a rerun skips it; a rerun runs
 every other one again, failed runs included (a fixed plug-in, a longer
-``timeout``, a device that works). CSV, not Parquet: pandas needs the optional
+``timeout``, a device that works); ``rerun=True`` (``bench --rerun``) runs the
+finished ones again too. CSV, not Parquet: pandas needs the optional
 pyarrow for Parquet, and the files are small.
 
 Failures
@@ -82,7 +84,13 @@ from tqdm.auto import tqdm
 
 from synthcal.config import METRICS
 from synthcal.data import read_scene
-from synthcal.eval.isolation import DEFAULT_TIMEOUT, estimate_isolated, load_run_split, write_text_atomic
+from synthcal.eval.isolation import (
+    DEFAULT_TIMEOUT,
+    estimate_isolated,
+    load_run_split,
+    sweep_exchanges,
+    write_text_atomic,
+)
 from synthcal.eval.runs import (
     AXES,
     Run,
@@ -115,6 +123,8 @@ __all__ = [
     "execute_run",
     "DEFAULT_TIMEOUT",
     "DamagedRecordWarning",
+    "is_finished",
+    "sweep_exchanges",
     "run_sweep",
     "collect_results",
     "training_budget",
@@ -177,8 +187,8 @@ def with_device(run: Run, device: str | None) -> Run:
 
 
 def execute_run(run: Run, results: str | Path, device: str | None = None, progress: bool = False,
-                timeout: float | None = DEFAULT_TIMEOUT) -> Path:
-    """Evaluate one run unless it is finished (ok); returns its folder (module docstring).
+                timeout: float | None = DEFAULT_TIMEOUT, rerun: bool = False) -> Path:
+    """Evaluate one run unless it is finished (ok) or ``rerun``; returns its folder (module docstring).
 
     Args:
         run: from :func:`expand_runs`.
@@ -186,6 +196,7 @@ def execute_run(run: Run, results: str | Path, device: str | None = None, progre
         device: replaces the run's device (:func:`with_device`); None: the run's own.
         progress: the estimator's own progress bars.
         timeout: seconds the run's process may take (start-up not counted); None or 0: no limit.
+        rerun: run it even if it is finished (its results are replaced).
 
     Raises:
         StoreError: the run's store or splits cannot be read.
@@ -194,7 +205,7 @@ def execute_run(run: Run, results: str | Path, device: str | None = None, progre
     results = Path(results)
     run = with_device(run, device)
     folder = run_folder(results, run)
-    if is_finished(results, run):
+    if not rerun and is_finished(results, run):
         return folder
     # Scoring reads its own copy of the scene and the test split, loaded here: the
     # estimator, in its own process, cannot reach it.
@@ -244,8 +255,10 @@ def _estimate_columns(estimates: Any, n: int) -> np.ndarray:
 
 
 def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = None, scheduler: str | None = None,
-              progress: bool = True, timeout: float | None = DEFAULT_TIMEOUT) -> pd.DataFrame:
-    """Execute every run not finished ok (locally, or on a Dask cluster); return all results.
+              progress: bool = True, timeout: float | None = DEFAULT_TIMEOUT, rerun: bool = False) -> pd.DataFrame:
+    """Execute every run not finished ok (every run: ``rerun``), locally or on a Dask cluster; return all results.
+
+    Exchange folders a killed sweep left in ``results`` (:func:`sweep_exchanges`) are removed first.
 
     Args:
         runs: from :func:`expand_runs`.
@@ -255,6 +268,7 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
         scheduler: a Dask scheduler address, or None to run here, one after another.
         progress: progress bars (runs; epochs inside the bundled models).
         timeout: seconds each run's process may take; None or 0: no limit.
+        rerun: run the finished runs again too (their results are replaced).
 
     Returns:
         :func:`collect_results` of the folder.
@@ -267,11 +281,12 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
     runs = [with_device(run, device) for run in runs]
     # Now, not after the first run: a results folder that cannot be written stops the sweep at once.
     (results / "runs").mkdir(parents=True, exist_ok=True)
-    todo = [run for run in runs if not is_finished(results, run)]
+    sweep_exchanges(results)
+    todo = list(runs) if rerun else [run for run in runs if not is_finished(results, run)]
     bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="runs", unit="run", disable=not progress)
     # Here: one run after another, with the estimators' own progress bars; on a cluster: none.
     execute = functools.partial(execute_run, results=str(results), progress=progress and scheduler is None,
-                                timeout=timeout)
+                                timeout=timeout, rerun=rerun)
     try:
         for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
             bar.set_postfix_str(folder.name)

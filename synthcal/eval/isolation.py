@@ -21,8 +21,16 @@ as the outcome's ``error``, prefixed by the stage (``load``, ``fit``,
 ``predict: killed by signal 11 (SIGSEGV)``, ``fit: exited with status 1``.
 A store or split the process cannot read comes back as ``data_error``: an error
 in the data, which stops the sweep. Exchange with the process goes through a
-folder beside the results (``request.json`` in; ``stage`` and ``result.json``
-out), removed afterwards.
+folder beside the results (``request.json`` in; ``stage``, ``crash.log`` and
+``result.json`` out), removed afterwards; those a killed sweep left behind are
+removed by the next sweep (:func:`sweep_exchanges`).
+
+The process runs in a session (and process group) of its own: when it ends, by
+itself or killed, the group is killed too, so nothing it started (a data loader, a
+server) outlives the run. A process that leaves the group (its own ``setsid``)
+escapes this. A crash dump (:mod:`faulthandler`'s Python stack of a segmentation
+fault) goes to ``RESULTS/runs/<run-id>/crash.log``, recorded as the outcome's
+``log``; the terminal gets one line naming it.
 """
 
 from __future__ import annotations
@@ -52,7 +60,8 @@ from synthcal.store import StoreError
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent
 
-__all__ = ["DEFAULT_TIMEOUT", "estimate_isolated", "load_run_split", "run_child", "write_text_atomic"]
+__all__ = ["DEFAULT_TIMEOUT", "estimate_isolated", "load_run_split", "run_child", "sweep_exchanges",
+           "write_text_atomic"]
 
 # Per-run time limit of ``synthcal bench --timeout`` (seconds): generous, it only
 # catches an estimator that hangs; the paper-size runs take minutes to an hour.
@@ -64,6 +73,9 @@ _STARTUP_SECONDS = 300.0
 _POLL_SECONDS = 0.05
 # Stands for an estimate numpy cannot read as numbers: metrics judges it "not numeric".
 _NOT_NUMERIC = "not numeric"
+# An exchange folder without a readable request older than this is a sweep's killed between
+# creating it and writing the request (seconds); younger, it may be being written.
+_UNWRITTEN_SECONDS = 60.0
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -211,7 +223,9 @@ def run_child(exchange: str) -> None:
     folder = Path(exchange)
     request = json.loads((folder / "request.json").read_text(encoding="utf-8"))
     die_with_parent(request["parent"])  # a kill -9 of the sweep leaves no run behind
-    faulthandler.enable(all_threads=False)  # a crash prints the plug-in's Python stack to stderr
+    # A crash writes the plug-in's Python stack here; the sweep moves it to the run's folder.
+    crash_log = (folder / "crash.log").open("w", encoding="utf-8")
+    faulthandler.enable(crash_log, all_threads=False)
     # The read-only arrays reach torch.from_numpy in SplitDataset.__getitem__, which
     # warns that writing through the tensor is undefined; nothing here writes.
     warnings.filterwarnings("ignore", message="The given NumPy array is not writable")
@@ -234,12 +248,18 @@ def run_child(exchange: str) -> None:
 
 
 def _kill(process: subprocess.Popen[bytes]) -> None:
-    """SIGKILL the run's process and everything it started (its own session)."""
-    try:
-        os.killpg(process.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    process.wait()
+    """SIGKILL the run's process and everything it started (its own session), also once it has ended.
+
+    The group outlives its leader while a member lives, and its id cannot be reused
+    until the last member is gone, so killing it after the wait reaches only what
+    the run started.
+    """
+    for _ in range(2):  # before the wait, then once more for what it started meanwhile
+        try:
+            os.killpg(process.pid, signal.SIGKILL)
+        except ProcessLookupError:  # the group is empty
+            break
+        process.wait()
 
 
 def _wait(process: subprocess.Popen[bytes], stage: Path, timeout: float | None) -> int | None:
@@ -303,8 +323,7 @@ def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | 
         try:
             status = _wait(process, exchange / "stage", timeout)
         finally:
-            if process.poll() is None:
-                _kill(process)
+            _kill(process)  # what it started, if it has ended by itself
         seconds = time.monotonic() - started
         stage = (exchange / "stage").read_text(encoding="utf-8") if (exchange / "stage").exists() else "start"
         try:
@@ -318,7 +337,62 @@ def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | 
                 why = f"exited with status {status}" + (" before reporting its estimates" if status == 0 else "")
             outcome = {"estimates": None, "error": f"{stage}: {why}"}
         outcome["seconds"] = seconds
+        _keep_crash_log(exchange / "crash.log", results / "runs" / run.id, outcome)
         return outcome
     finally:
         shutil.rmtree(exchange, ignore_errors=True)
+
+
+def _keep_crash_log(dump: Path, folder: Path, outcome: dict[str, Any]) -> None:
+    """Move a crash dump to the run's folder (``outcome["log"]``) with one line on the terminal; else
+    remove an older run's."""
+    log = folder / "crash.log"
+    if not (dump.is_file() and dump.stat().st_size):
+        log.unlink(missing_ok=True)
+        return
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.move(dump, log)
+    outcome["log"] = str(log)
+    print(f"synthcal: run {folder.name}: {outcome.get('error') or 'crashed'}; crash dump in {log}",
+          file=sys.stderr, flush=True)
+
+
+def _parent_alive(request: Path) -> bool | None:
+    """Whether the sweep that wrote ``request.json`` still runs (None: no readable request)."""
+    try:
+        parent = int(json.loads(request.read_text(encoding="utf-8"))["parent"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    try:
+        os.kill(parent, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process: alive
+        pass
+    return True
+
+
+def sweep_exchanges(results: str | Path) -> list[Path]:
+    """Remove the exchange folders a killed sweep left in ``results`` (module docstring).
+
+    A folder is left behind when its sweep is gone (``kill -9``): its request names
+    a process that no longer exists, or it has no readable request and is older than
+    a minute. Folders of a sweep still running (another ``bench`` on the same
+    results) are kept.
+
+    Returns:
+        the folders removed, sorted.
+    """
+    removed = []
+    for folder in sorted(Path(results).glob(".exchange-*")):
+        alive = _parent_alive(folder / "request.json")
+        if alive is None:
+            try:
+                alive = time.time() - folder.stat().st_mtime < _UNWRITTEN_SECONDS
+            except FileNotFoundError:  # its sweep removed it meanwhile
+                continue
+        if not alive:
+            shutil.rmtree(folder, ignore_errors=True)
+            removed.append(folder)
+    return removed
 

@@ -143,7 +143,7 @@ def check_truth(H_true: np.ndarray, image_size: tuple[int, int], index: Any = No
         TruthError: non-finite or singular, or its bottom-centre pixel does not see
             the ground in front of the camera (e.g. a negated truth).
     """
-    where = f"{source + ': ' if source else ''}true homography of sample {index}"
+    where = f"{source + ': ' if source else ''}true homography" + ("" if index is None else f" of sample {index}")
     H = np.asarray(H_true, dtype=np.float64)
     if H.shape != (3, 3) or not np.isfinite(H).all() or not np.abs(H).max() > 0:
         raise TruthError(f"{where} is not a finite (3, 3) matrix: {H.tolist()}")
@@ -240,7 +240,11 @@ def iou(
 
     Returns:
         IoU in [0, 1]; 0 for a failed estimate.
+
+    Raises:
+        TruthError: ``H_true`` is not valid truth (:func:`check_truth`).
     """
+    H_true = check_truth(H_true, image_size)
     H, _ = check_homography(H_est, image_size)
     return 0.0 if H is None else _iou(scene_semantic, H, H_true, image_size, classes)
 
@@ -270,7 +274,11 @@ def readings(scene_semantic: np.ndarray, H_est: Any, H_true: np.ndarray, image_s
 
     Returns:
         dict of the three readings in [0, 1]; all 0 for a failed estimate.
+
+    Raises:
+        TruthError: ``H_true`` is not valid truth (:func:`check_truth`).
     """
+    H_true = check_truth(H_true, image_size)
     H, _ = check_homography(H_est, image_size)
     if H is None:
         return dict.fromkeys(READINGS, 0.0)

@@ -64,7 +64,7 @@ from typing import Any
 
 import numpy as np
 
-from synthcal.eval.metrics import check_homography
+from synthcal.eval.metrics import check_homography, check_truth
 
 __all__ = ["field_polygon", "iou_part", "iou_whole"]
 
@@ -173,7 +173,11 @@ def iou_part(
 
     Returns:
         IoU in [0, 1]; 0 for a failed estimate, and 0 when the truth sees no field.
+
+    Raises:
+        TruthError: ``H_true`` is not valid truth (:func:`~synthcal.eval.metrics.check_truth`).
     """
+    H_true = check_truth(H_true, image_size)
     H, _ = check_homography(H_est, image_size)
     return 0.0 if H is None else iou_part_checked(field_polygon(scene_shape, field), H, H_true, image_size)
 
@@ -208,7 +212,11 @@ def iou_whole(
 
     Returns:
         IoU in [0, 1]; 0 for a failed estimate.
+
+    Raises:
+        TruthError: ``H_true`` is not valid truth (:func:`~synthcal.eval.metrics.check_truth`).
     """
+    H_true = check_truth(H_true, image_size)
     H, _ = check_homography(H_est, image_size)
     return 0.0 if H is None else iou_whole_checked(H, H_true, image_size, canvas_scale)
 

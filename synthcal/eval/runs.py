@@ -54,8 +54,10 @@ Run ids
 ``<dataset>_<model>[_<training>_<loss>_<matching>_<segmentation>]_s<seed>_<hash>``,
 the hash over the whole resolved run but the store's path (its config hash
 stands for its content): every setting that changes the result is in it —
-the profile's training settings, the split sizes it caps (``limits``) and the
-device. The device is in it because a result depends on it: floating-point
+the profile's training settings, the split sizes it caps (``limits``), the
+device and what the estimator is (``code``: a hash of its source, or of the
+bundled models' code; :mod:`synthcal.estimators.version`), so that an edited
+plug-in is run again rather than its old results reused. The device is in it because a result depends on it: floating-point
 reductions differ between CPU and GPU kernels, so the trained weights differ,
 and a run asked of a device that cannot run it (``cuda`` without CUDA) fails;
 under the old identity, which left the device out, that failure was reused by a
@@ -78,6 +80,7 @@ import numpy as np
 
 from synthcal.config import DICTIONARIES, Dictionary, Loss, Matching, Segmentation, Training
 from synthcal.estimators import resolve_estimator
+from synthcal.estimators.version import estimator_version
 from synthcal.store import open_store
 from synthcal.store.splits import (
     SplitError,
@@ -124,6 +127,9 @@ class Run:
         dictionary: ``split`` (the seed's dictionary split, or the mixed one) or
             ``pool`` (every pool sample outside the seed's train and test sets;
             module docstring, "Dictionaries").
+        code: what the estimator is, its code version
+            (:func:`synthcal.estimators.version.estimator_version`): an edited
+            plug-in or bundled model is a new run.
     """
 
     dataset: str
@@ -142,6 +148,7 @@ class Run:
     device: str | None = None
     limits: dict[str, int] | None = field(default=None, hash=False)
     dictionary: Dictionary = "split"
+    code: str = ""
 
     @property
     def id(self) -> str:
@@ -303,6 +310,7 @@ def _estimator_runs(name: str, base: dict[str, Any], values: dict[str, Sequence[
     """One estimator's runs on one dataset: its applicable axes × seeds."""
     cls = resolve_estimator(name)
     params = constructor_parameters(cls)
+    code = estimator_version(cls)
     applies = {a: (hasattr(cls, "predict_semantic") if a == "segmentation" else a in params) for a in AXES}
     grid: list[Sequence[str | None]] = [values[a] if applies[a] else [None] for a in AXES]
     runs = []
@@ -311,7 +319,7 @@ def _estimator_runs(name: str, base: dict[str, Any], values: dict[str, Sequence[
         axes: dict[str, Any] = dict(zip(AXES, combo, strict=True))
         runs.append(Run(**base, estimator=name, model=estimator_label(name, cls, taken), seed=int(seed),
                         profile=profile, settings=taken,
-                        device=device if "device" in params else None, **axes))
+                        device=device if "device" in params else None, code=code, **axes))
     return runs
 
 

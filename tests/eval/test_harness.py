@@ -2,6 +2,7 @@
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -517,3 +518,121 @@ def test_ten_seeds_split_bench_and_table_with_the_all_background_floor(smoke_sto
         truths = test.semantics[np.isin(test.indices, scored["pool_index"])]
         per_seed.append(np.mean([np.mean(t == 0) ** 2 for t in truths]))
     assert floor == [f"all-background floor: {100 * np.mean(per_seed):.2f}"]
+
+
+# --- issue 23: the estimator's code in the run's identity, leftovers, spawned processes, crashes -------
+
+
+PLUGIN = "synthcal_edited_plugin"
+PLUGIN_SOURCE = '''from synthcal.estimators import IdentityEstimator
+
+
+class Fixed(IdentityEstimator):
+    def predict(self, images):
+        return {body}
+'''
+
+
+def run_json_times(results: Path) -> dict[str, int]:
+    return {p.parent.name: p.stat().st_mtime_ns for p in (results / "runs").glob("*/run.json")}
+
+
+def test_an_edited_plugin_runs_again_and_rerun_runs_on_demand(data, tmp_path, monkeypatch, capsys):
+    folder = tmp_path / "plugins"
+    folder.mkdir()
+    monkeypatch.syspath_prepend(str(folder))
+    source = folder / f"{PLUGIN}.py"
+
+    def write(body: str) -> None:
+        source.write_text(PLUGIN_SOURCE.format(body=body))
+        for cached in folder.glob(f"__pycache__/{PLUGIN}.*"):  # the same size within a second would reuse it
+            cached.unlink()
+
+    write("super().predict(images)")
+    results = tmp_path / "results"
+    assert bench(data, results, f"{PLUGIN}:Fixed") == 0
+    assert "2 runs: 0 reused, 2 to run" in capsys.readouterr().out
+    first = run_json_times(results)
+    assert bench(data, results, f"{PLUGIN}:Fixed") == 0
+    assert "2 runs: 2 reused, 0 to run" in capsys.readouterr().out and run_json_times(results) == first
+
+    write("[[[float('nan')] * 3] * 3] * len(images)")  # predict edited: the new code must run
+    assert bench(data, results, f"{PLUGIN}:Fixed") == 1
+    out = capsys.readouterr().out
+    assert "2 runs: 0 reused, 2 to run" in out and "all 8 estimates invalid: non-finite entries" in out
+    edited = set(run_json_times(results)) - set(first)
+    assert len(edited) == 2 and all(name.startswith("intersection-1_Fixed_s") for name in edited)
+
+    write("super().predict(images)")  # the first code again: its runs, by the same ids
+    assert bench(data, results, f"{PLUGIN}:Fixed") == 0
+    assert "2 runs: 2 reused, 0 to run" in capsys.readouterr().out
+    assert bench(data, results, f"{PLUGIN}:Fixed", extra=("--rerun",)) == 0
+    assert "2 runs: 0 reused, 2 to run" in capsys.readouterr().out
+    again = run_json_times(results)
+    assert all(again[name] != first[name] for name in first)
+
+
+def test_code_versions_hash_relative_paths_and_bytes_only(tmp_path):
+    from synthcal.estimators.version import BUNDLED_PACKAGES, bundled_code_version, source_digest
+
+    package = ROOT / "synthcal"
+    copy = tmp_path / "elsewhere" / "synthcal"
+    for name in BUNDLED_PACKAGES:  # the same code in another folder, with other modification times
+        shutil.copytree(package / name, copy / name, ignore=shutil.ignore_patterns("__pycache__"))
+    assert bundled_code_version(copy) == bundled_code_version()
+    with (copy / "models" / "unet.py").open("a") as stream:
+        stream.write("\n# an edit\n")
+    assert bundled_code_version(copy) != bundled_code_version()
+
+    one, two = tmp_path / "a", tmp_path / "b"
+    for folder, line_end in ((one, "\n"), (two, "\r\n")):  # a Windows checkout reads the same
+        folder.mkdir()
+        (folder / "plugin.py").write_text(f"x = 1{line_end}", newline="")
+    assert source_digest([("plugin.py", one / "plugin.py")]) == source_digest([("plugin.py", two / "plugin.py")])
+    assert source_digest([("plugin.py", one / "plugin.py")]) != source_digest([("other.py", one / "plugin.py")])
+
+
+def test_a_killed_sweeps_exchange_folders_are_swept(data, tmp_path, capsys):
+    gone = subprocess.Popen(["true"])
+    gone.wait()  # a sweep that was killed: its process no longer exists
+    results = tmp_path / "results"
+    left, live = results / ".exchange-left", results / ".exchange-live"
+    for folder, parent in ((left, gone.pid), (live, os.getpid())):
+        folder.mkdir(parents=True)
+        (folder / "request.json").write_text(json.dumps({"parent": parent}))
+    assert bench(data, results, "identity", seeds="0") == 0
+    assert not left.exists() and live.exists()  # another sweep's, still running, is kept
+    assert [p.name for p in results.iterdir() if p.name.startswith(".exchange-")] == [live.name]
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process runs (a zombie waiting for its parent to read its status does not)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_a_process_a_plugin_starts_ends_with_its_run(data, tmp_path, monkeypatch):
+    spawned = tmp_path / "spawned.pid"
+    monkeypatch.setenv("SYNTHCAL_TEST_SPAWNED", str(spawned))
+    assert bench(data, tmp_path / "results", f"{FAULTY}:SpawningEstimator", seeds="0") == 0
+    pid = int(spawned.read_text())
+    deadline = time.monotonic() + 5
+    while _alive(pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not _alive(pid)
+
+
+def test_a_crash_dump_goes_to_the_runs_log_and_the_terminal_gets_one_line(data, tmp_path, capfd):
+    results = tmp_path / "results"
+    assert bench(data, results, f"{FAULTY}:SegfaultingEstimator", seeds="0") == 1
+    err = capfd.readouterr().err
+    (run_id,) = [p.name for p in (results / "runs").iterdir()]
+    log = results / "runs" / run_id / "crash.log"
+    assert err.splitlines() == [f"synthcal: run {run_id}: predict: killed by signal 11 (SIGSEGV); "
+                                f"crash dump in {log}"]
+    dump = log.read_text()
+    assert "Fatal Python error: Segmentation fault" in dump and "in predict" in dump
+    assert record_of(results, run_id)["log"] == str(log)

@@ -7,6 +7,7 @@ from metric_cases import SIZE, blobs, perspective, stripes, top_down
 
 from synthcal.config import METRICS, READINGS
 from synthcal.eval.metrics import (
+    TruthError,
     check_homography,
     iou,
     readings,
@@ -140,3 +141,23 @@ def test_readings_come_from_the_two_renders():
     assert frame.loc[0, list(READINGS)].tolist() == pytest.approx([(8 - d) / (8 + d)] * 3, abs=1e-12)
     assert (frame.loc[1, list(METRICS)] == 1.0).all() and (frame.loc[2, list(METRICS)] == 0.0).all()
     assert readings(scene, None, H_true, SIZE) == dict.fromkeys(READINGS, 0.0)
+
+
+def _nan_entry(H: np.ndarray) -> np.ndarray:
+    H = H.copy()
+    H[1, 2] = np.nan
+    return H
+
+
+@pytest.mark.parametrize("metric", ["iou", "readings", "iou_part", "iou_whole"])
+@pytest.mark.parametrize("truth", [_nan_entry, np.zeros_like], ids=["nan-entry", "zero"])
+def test_every_metric_refuses_invalid_truth(metric, truth):
+    """A NaN in the truth or a zero truth is an error in the data, not a score of 0 (nor a LinAlgError)."""
+    scene = blobs(5)
+    good = perspective(0, -10, 30)
+    score = {"iou": lambda H: iou(scene, good, H, SIZE), "readings": lambda H: readings(scene, good, H, SIZE),
+             "iou_part": lambda H: iou_part(scene.shape, good, H, SIZE),
+             "iou_whole": lambda H: iou_whole(good, H, SIZE)}[metric]
+    assert score(good) == (dict.fromkeys(READINGS, 1.0) if metric == "readings" else 1.0)
+    with pytest.raises(TruthError, match=r"^true homography is not a finite \(3, 3\) matrix"):
+        score(truth(good))

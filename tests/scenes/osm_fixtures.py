@@ -51,20 +51,25 @@ class OsmXml:
         self.ids: dict[tuple[float, float], int] = {}
         self.next_id = 1
 
-    def node(self, east: float, north: float, tags: dict[str, str] | None = None) -> int:
+    def node(self, east: float, north: float, tags: dict[str, str] | None = None, absent: bool = False) -> int:
+        """A node's id; ``absent``: the id only, the node left out of the file (outside the extract)."""
         key = (round(east, 3), round(north, 3))
         if key in self.ids and not tags:
             return self.ids[key]
         lon, lat = to_lonlat(east, north, self.center)
         node_id = self.next_id
         self.next_id += 1
+        if absent:
+            return node_id
         body = "".join(f'<tag k="{k}" v="{v}"/>' for k, v in (tags or {}).items())
         self.nodes.append(f'<node id="{node_id}" version="1" lat="{lat:.9f}" lon="{lon:.9f}">{body}</node>')
         self.ids[key] = node_id
         return node_id
 
-    def way(self, points: Sequence[tuple[float, float]], tags: dict[str, str], closed: bool = False) -> None:
-        refs = [self.node(e, n) for e, n in points]
+    def way(self, points: Sequence[tuple[float, float]], tags: dict[str, str], closed: bool = False,
+            absent: Sequence[int] = ()) -> None:
+        """A way over nodes at ``points``; those at positions ``absent`` are referred to but not written."""
+        refs = [self.node(e, n, absent=i in absent) for i, (e, n) in enumerate(points)]
         if closed:
             refs.append(refs[0])
         body = "".join(f'<nd ref="{r}"/>' for r in refs) + "".join(f'<tag k="{k}" v="{v}"/>' for k, v in tags.items())

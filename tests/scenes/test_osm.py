@@ -161,6 +161,28 @@ def test_same_file_centre_and_seed_give_identical_pngs(osm_file, tmp_path):
     assert cv2.imread(str(tmp_path / "one" / "semantic.png"), cv2.IMREAD_UNCHANGED).tobytes() == a.semantic.tobytes()
 
 
+def test_a_way_cut_by_the_extract_keeps_its_runs_and_says_so(tmp_path):
+    """A road whose first and last nodes lie outside the extract keeps its part through the
+    window; a gap inside a way is not bridged; the provenance counts the missing nodes."""
+    from synthcal.scenes.osm import osm_attributes
+
+    osm = OsmXml()
+    # North–south through the centre, its ends 150 m out and absent from the file.
+    osm.way([(0.0, -150.0), (0.0, -20.0), (0.0, 20.0), (0.0, 150.0)], {"highway": "secondary"}, absent=(0, 3))
+    # West–east at N = −30 with a node missing in the middle: two runs, 10 m apart.
+    osm.way([(-25.0, -30.0), (-5.0, -30.0), (0.0, -300.0), (5.0, -30.0), (25.0, -30.0)], {"highway": "secondary"},
+            absent=(2,))
+    path = osm.write(tmp_path / "cut.osm")
+    semantic = _build(path)
+    # 6.5 m wide (secondary): road on the centre line of each located run ...
+    assert [_class_at(semantic, 0.0, n) for n in (-15.0, 0.0, 15.0)] == [1, 1, 1]
+    assert [_class_at(semantic, e, -30.0) for e in (-20.0, -8.0, 8.0, 20.0)] == [1, 1, 1, 1]
+    # ... but not across the gap (round caps reach 3.25 m past E = ±5) nor beyond the last located node.
+    assert _class_at(semantic, 0.0, -30.0) == 0 and _class_at(semantic, 0.0, 30.0) == 0
+    source = osm_attributes(path, CENTER, SIZE_M, PPM)
+    assert (source["missing_nodes"], source["cut_ways"]) == (3, 2)
+
+
 def test_built_once_and_cached_by_content(osm_file, tmp_path, monkeypatch):
     import synthcal.scenes.osm.build as osm
 
@@ -202,6 +224,7 @@ def test_generate_and_scene_from_a_yaml_entry(osm_file, tmp_path, capsys):
     assert source["sha256"] == hashlib.sha256(osm_file.read_bytes()).hexdigest()
     assert source["center"] == list(CENTER) and source["size_m"] == [60.0, 80.0]
     assert source["licence"] == "ODbL-1.0" and source["attribution"] == "© OpenStreetMap contributors"
+    assert (source["missing_nodes"], source["cut_ways"]) == (0, 0)  # the junction's ways are whole
     # The store's recorded configuration reads back: splits can be drawn from it.
     store = str(tmp_path / "out" / "my-junction.zarr")
     assert main(["split", store, "--seeds", "0", "--train", "2", "--test", "2", "--dictionary", "2"]) == 0

@@ -41,14 +41,18 @@ from ..intersection import PALETTE
 from .classes import CLASS_NAMES, ClassRules, class_rules, relevant_keys
 from .read import Frame, centre_inside, read_osm
 
-__all__ = ["build_osm_scene", "paint_window", "forget_scenes_in_memory", "osm_attributes", "file_sha256", "OSM_LICENCE", "OSM_ATTRIBUTION", "cache_folder"]
+__all__ = ["build_osm_scene", "paint_window", "forget_scenes_in_memory", "osm_attributes", "file_sha256",
+           "OSM_LICENCE", "OSM_ATTRIBUTION", "cache_folder"]
 
 OSM_LICENCE = "ODbL-1.0"
 OSM_ATTRIBUTION = "© OpenStreetMap contributors"
 # Bump when the painting changes: cached scenes of an older painter are then rebuilt.
-PAINTER_VERSION = 1
+# 2: ways with nodes missing from the extract are kept as their located runs (were dropped).
+PAINTER_VERSION = 2
 
 _MEMORY: dict[str, Scene] = {}
+# What reading found, per cache key (``missing_nodes``, ``cut_ways``): the store's provenance.
+_READINGS: dict[str, dict[str, int]] = {}
 _HASHES: dict[tuple[str, int, int], str] = {}
 
 
@@ -111,20 +115,26 @@ def _cache_key(digest: str, frame: Frame, classes: Mapping[str, Sequence[str]] |
     return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()
 
 
-def _load_cached(folder: Path) -> tuple[np.ndarray, np.ndarray] | None:
-    if not ((folder / "image.png").is_file() and (folder / "semantic.png").is_file()):
+def _load_cached(folder: Path) -> tuple[np.ndarray, np.ndarray, dict[str, int]] | None:
+    if not all((folder / name).is_file() for name in ("image.png", "semantic.png", "reading.json")):
         return None
     image = cv2.imread(str(folder / "image.png"), cv2.IMREAD_COLOR)
     semantic = cv2.imread(str(folder / "semantic.png"), cv2.IMREAD_UNCHANGED)
-    if image is None or semantic is None or semantic.ndim != 2:
+    try:
+        reading = json.loads((folder / "reading.json").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):  # a damaged cache entry is rebuilt
         return None
-    return np.ascontiguousarray(image[..., ::-1]), semantic
+    if image is None or semantic is None or semantic.ndim != 2 or not isinstance(reading, dict):
+        return None
+    return np.ascontiguousarray(image[..., ::-1]), semantic, reading
 
 
-def _store_cached(folder: Path, image: np.ndarray, semantic: np.ndarray) -> None:
-    """Write the two PNGs (atomically); a cache that cannot be written is skipped."""
+def _store_cached(folder: Path, image: np.ndarray, semantic: np.ndarray, reading: dict[str, int]) -> None:
+    """Write the two PNGs and what reading found (atomically); a cache that cannot be written is skipped."""
     try:
         folder.mkdir(parents=True, exist_ok=True)
+        with atomic_write(folder / "reading.json") as tmp:
+            tmp.write_text(json.dumps(reading), encoding="utf-8")
         for name, array in (("semantic.png", semantic), ("image.png", image[..., ::-1])):
             ok, encoded = cv2.imencode(".png", array)
             if not ok:
@@ -135,11 +145,13 @@ def _store_cached(folder: Path, image: np.ndarray, semantic: np.ndarray) -> None
         pass
 
 
-def paint_window(path: Path, where: str, frame: Frame, rules: ClassRules, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def paint_window(path: Path, where: str, frame: Frame, rules: ClassRules,
+                 seed: int) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
     """Read an extract's window and paint it, bypassing every cache.
 
     Returns:
-        ``(image, semantic)``: (H, W, 3) uint8 RGB and (H, W) uint8 class map of ``frame``.
+        ``(image, semantic, reading)``: (H, W, 3) uint8 RGB and (H, W) uint8 class map of
+        ``frame``, and what reading found (``missing_nodes``, ``cut_ways``).
     """
     from .dress import dress
     from .paint import paint_classes
@@ -159,7 +171,7 @@ def paint_window(path: Path, where: str, frame: Frame, rules: ClassRules, seed: 
         raise SceneError(f"{where}.center: no road in the {frame.width_m:g} × {frame.height_m:g} m window around "
                          f"({frame.lat}, {frame.lon}) in {path}")
     rgb = dress(painted, data.features, frame, np.random.default_rng(seed))
-    return rgb, painted.canvas.semantic
+    return rgb, painted.canvas.semantic, {"missing_nodes": data.missing_nodes, "cut_ways": data.cut_ways}
 
 
 def build_osm_scene(
@@ -202,16 +214,18 @@ def build_osm_scene(
     (lat, lon), (width, height), ppm = _check_numbers(where, path, center, size_m, pixels_per_metre)
     rules = class_rules(classes, f"{where}.classes ({path})")
     frame = Frame(lat, lon, width, height, ppm)
-    if not cache:
-        return _scene(name, path, frame, *paint_window(path, where, frame, rules, int(seed)))
     key = _cache_key(file_sha256(path), frame, classes, int(seed))
+    if not cache:
+        image, semantic, _READINGS[key] = paint_window(path, where, frame, rules, int(seed))
+        return _scene(name, path, frame, image, semantic)
     if key not in _MEMORY:
-        arrays = _load_cached(cache_folder() / key)
-        if arrays is None:
-            arrays = paint_window(path, where, frame, rules, int(seed))
-            _store_cached(cache_folder() / key, *arrays)
+        built = _load_cached(cache_folder() / key)
+        if built is None:
+            built = paint_window(path, where, frame, rules, int(seed))
+            _store_cached(cache_folder() / key, *built)
+        image, semantic, _READINGS[key] = built
         _MEMORY.clear()  # scenes are large: keep one
-        _MEMORY[key] = _scene(name, path, frame, *arrays)
+        _MEMORY[key] = _scene(name, path, frame, image, semantic)
     scene = _MEMORY[key]
     return scene if scene.name == name else _scene(name, path, frame, scene.image, scene.semantic)
 
@@ -227,11 +241,21 @@ def _scene(name: str, path: Path, frame: Frame, image: np.ndarray, semantic: np.
 def osm_attributes(path: str | os.PathLike, center: Sequence[float], size_m: Sequence[float],
                    pixels_per_metre: float, classes: Mapping[str, Sequence[str]] | None = None,
                    seed: int = 0) -> dict[str, Any]:
-    """What a store records about an OSM scene's source: file hash, centre, size, scale, licence."""
+    """What a store records about an OSM scene's source: file hash, centre, size, scale, licence,
+    and what reading found: ``missing_nodes`` (nodes of the ways reaching the window that the
+    extract lacks; those ways are kept as their located runs) and ``cut_ways`` (how many ways).
+
+    The counts come from the scene's build (:func:`build_osm_scene` with the same
+    arguments; built here if it was not).
+    """
     path = Path(path)
+    frame = Frame(float(center[0]), float(center[1]), float(size_m[0]), float(size_m[1]), float(pixels_per_metre))
+    key = _cache_key(file_sha256(path), frame, classes, int(seed))
+    if key not in _READINGS:
+        build_osm_scene(path, center, size_m, pixels_per_metre, seed=seed, classes=classes)
     return {
         "kind": "openstreetmap", "file": path.name, "sha256": file_sha256(path),
         "center": [float(c) for c in center], "size_m": [float(s) for s in size_m],
         "pixels_per_metre": float(pixels_per_metre), "classes": {k: list(v) for k, v in (classes or {}).items()},
-        "seed": int(seed), "licence": OSM_LICENCE, "attribution": OSM_ATTRIBUTION,
+        "seed": int(seed), "licence": OSM_LICENCE, "attribution": OSM_ATTRIBUTION, **_READINGS[key],
     }

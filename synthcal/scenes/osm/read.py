@@ -9,7 +9,10 @@ streaming pass (two when the file holds multipolygon relations: osmium's area
 assembly reads the relations first). Only objects whose keys can matter reach
 Python (osmium's ``KeyFilter`` runs in C++), and of those only the ones whose
 bounding box meets the window (plus a margin for carriageway widths and tree
-crowns) are kept, so a large extract costs little more than reading it.
+crowns) are kept, so a large extract costs little more than reading it. A way
+whose nodes are partly missing from the extract (cut by the extract's box) is
+kept as its runs of located nodes (:func:`located_runs`); the missing nodes are
+counted (:class:`OsmData`).
 
 Geometry is returned in metres ``(E, N)`` of the frame (shapely 2), not pixels:
 left and right of a way are then the usual mathematical sides.
@@ -36,7 +39,7 @@ import shapely
 
 from ..base import SceneError
 
-__all__ = ["Frame", "Feature", "OsmData", "read_osm", "MARGIN_M"]
+__all__ = ["Frame", "Feature", "OsmData", "read_osm", "located_runs", "MARGIN_M"]
 
 # Features whose bounding box comes within this many metres of the window are kept:
 # wide enough for the widest carriageway (its centre line may lie outside) and crowns.
@@ -141,11 +144,16 @@ class OsmData:
         features: the features meeting the window, in file order (nodes, ways, areas as osmium gives them).
         header_box: ``(west, south, east, north)`` of the file's header, or None.
         data_box: ``(west, south, east, north)`` of every relevant object read (anywhere), or None.
+        missing_nodes: nodes without a location in the extract, of the ways that reach the window
+            (their located runs are kept: :func:`located_runs`).
+        cut_ways: how many of those ways miss nodes.
     """
 
     features: list[Feature] = field(default_factory=list)
     header_box: tuple[float, float, float, float] | None = None
     data_box: tuple[float, float, float, float] | None = None
+    missing_nodes: int = 0
+    cut_ways: int = 0
 
     def extend_data_box(self, west: float, south: float, east: float, north: float) -> None:
         if self.data_box is None:
@@ -166,9 +174,45 @@ def _header_box(path: Path) -> tuple[float, float, float, float] | None:
     return (bl.lon, bl.lat, tr.lon, tr.lat)
 
 
-def _line_bounds(wkb_hex: str) -> tuple[float, float, float, float]:
-    """Bounds of a little-endian WKB linestring given as hex (what osmium's WKBFactory writes)."""
-    coords = np.frombuffer(bytes.fromhex(wkb_hex), "<f8", offset=9).reshape(-1, 2)
+def located_runs(nodes: Iterable[Any]) -> tuple[list[list[tuple[float, float]]], int]:
+    """A way's runs of consecutive located nodes, and how many of its nodes have no location.
+
+    An extract cut by a box keeps the ways that cross its edge but not their nodes
+    outside it; joining the located nodes across such a gap would draw a straight
+    road that is not there, so the way is cut at every gap instead.
+
+    Args:
+        nodes: the way's node references (osmium ``NodeRef``: ``location.valid()``,
+            ``location.lon``, ``location.lat``).
+
+    Returns:
+        ``(runs, missing)``: runs of ≥ 2 ``(lon, lat)`` points (a located node
+        alone between gaps is dropped), and the number of nodes without a location.
+
+    >>> from types import SimpleNamespace as NS
+    >>> def ref(lon): return NS(location=NS(valid=lambda: lon is not None, lon=lon, lat=0.0))
+    >>> located_runs([ref(None), ref(1.0), ref(2.0), ref(None), ref(3.0), ref(4.0), ref(5.0), ref(None)])
+    ([[(1.0, 0.0), (2.0, 0.0)], [(3.0, 0.0), (4.0, 0.0), (5.0, 0.0)]], 3)
+    """
+    runs: list[list[tuple[float, float]]] = []
+    run: list[tuple[float, float]] = []
+    missing = 0
+    for node in nodes:
+        location = node.location
+        if location.valid():
+            run.append((location.lon, location.lat))
+            continue
+        missing += 1
+        if len(run) >= 2:
+            runs.append(run)
+        run = []
+    if len(run) >= 2:
+        runs.append(run)
+    return runs, missing
+
+
+def _runs_bounds(runs: Sequence[Sequence[tuple[float, float]]]) -> tuple[float, float, float, float]:
+    coords = np.array([point for run in runs for point in run])
     low, high = coords.min(0), coords.max(0)
     return float(low[0]), float(low[1]), float(high[0]), float(high[1])
 
@@ -201,22 +245,24 @@ class _Collector:
 
     def way(self, w: Any) -> None:
         tags = w.tags
-        line = ("highway" in tags and tags.get("area") != "yes") or tags.get("natural") == "tree_row"
+        line = is_line_way(tags)
         closed = w.is_closed()
         if not (line or closed):
             return  # an open way of area tags: only a multipolygon's member, which osmium assembles
-        try:
-            wkb = self.wkb.create_linestring(w)
-        except Exception:  # too few nodes or nodes missing from the extract
-            return
-        bounds = _line_bounds(wkb)
+        runs, missing = located_runs(w.nodes)
+        if not runs:
+            return  # fewer than two located nodes in a row: nothing to draw
+        bounds = _runs_bounds(runs)
         self.data.extend_data_box(*bounds)
         if not _meets(bounds, self.box):
             return
+        if missing:
+            self.data.missing_nodes += missing
+            self.data.cut_ways += 1
         if closed:
             self.closed_in_box.add(w.id)
         if line:
-            self.raw.append(("line", dict(tags), shapely.from_wkb(wkb), w.id))
+            self.raw.extend(("line", dict(tags), shapely.LineString(run), w.id) for run in runs)
 
     def area(self, a: Any) -> None:
         if a.from_way() and a.orig_id() not in self.closed_in_box:

@@ -9,7 +9,6 @@ from collections import namedtuple
 from pathlib import Path
 
 import pytest
-import yaml
 from test_cli import ROOT, assert_nothing_written, base_config, run
 
 from synthcal.cli import main

@@ -283,7 +283,8 @@ class UserSceneConfig(StrictModel):
     image: Path | None = None
     semantic: Path | None = None
     osm: OsmSourceConfig | None = None
-    palette: dict[StrictInt, tuple[StrictInt, StrictInt, StrictInt]] | None = None
+    # Class ids are lax: a store's JSON copy of the configuration spells them as strings ("0").
+    palette: dict[int, tuple[StrictInt, StrictInt, StrictInt]] | None = None
     classes: tuple[str, str, str, str] | None = None
     heading_deg: StrictFloat = 0.0
     camera_position: tuple[StrictFloat, StrictFloat, StrictFloat] | None = None

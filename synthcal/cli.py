@@ -135,7 +135,7 @@ def _cmd_generate(args: argparse.Namespace) -> None:
     for spec in specs:
         started = time.perf_counter()
         path = generate_dataset(spec, args.out, workers=args.workers, scheduler=args.scheduler,
-                                progress=_progress(args))
+                                progress=_progress(args), max_memory=args.max_memory)
         paths.append(path)
         print(f"{path}  {spec.pool_size} samples  {time.perf_counter() - started:.1f} s")
     if args.splits:
@@ -535,6 +535,22 @@ def _positive_int(text: str) -> int:
     return value
 
 
+_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def _byte_size(text: str) -> int:
+    """``--max-memory``: bytes, or a number with K, M, G or T (powers of 1024; ``8G``, ``1.5GiB``)."""
+    number = text.strip().upper().removesuffix("IB").removesuffix("B")
+    unit = number[-1:] if number[-1:] in _UNITS else ""
+    try:
+        value = float(number.removesuffix(unit)) * _UNITS[unit]
+    except ValueError:
+        value = 0.0
+    if not 1 <= value < 2**63:  # also refuses nan and inf
+        raise argparse.ArgumentTypeError(f"must be a size such as 8G or 512M (value {text!r})")
+    return int(value)
+
+
 # Picture formats of ``-o`` / ``--montage``: suffix → OpenCV's encoder.
 _PICTURES = {".png": ".png", ".jpg": ".jpg", ".jpeg": ".jpg"}
 _JPEG_QUALITY = 95
@@ -623,6 +639,8 @@ def _add_generate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the shards on this Dask scheduler (tcp://host:port; it must answer within 5 s)")
     p.add_argument("--n", type=int, default=None, help="pool size (overrides the configuration)")
+    p.add_argument("--max-memory", type=_byte_size, default=None, metavar="SIZE",
+                   help="refuse a run estimated to need more memory, e.g. 8G (default: this machine's memory)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--splits", action="store_true",
                    help="then draw the train/test/dictionary splits of every seed (and mixed dictionaries)")

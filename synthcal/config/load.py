@@ -9,14 +9,20 @@ from __future__ import annotations
 
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
-import yaml
 from pydantic import ValidationError
 
 from synthcal.config.schema import Config, DatasetConfig, ProfileConfig, SplitSizes, TrainingProfile, UserSceneConfig
 from synthcal.config.spec import DatasetSpec
-from synthcal.config.vocabulary import BUILTIN_SCENE_NAMES, POSE_SET_SPLITS, ConfigError, Dictionary, check_dataset_name
+from synthcal.config.vocabulary import (
+    BUILTIN_SCENE_NAMES,
+    POSE_SET_SPLITS,
+    ConfigError,
+    Dictionary,
+    brief,
+    check_dataset_name,
+)
+from synthcal.config.yaml_input import read_yaml
 
 __all__ = ["LoadedConfig", "default_config_path", "load_config"]
 
@@ -29,19 +35,20 @@ def default_config_path() -> Path:
     return Path(str(resources.files("synthcal") / "datasets.yaml"))
 
 
-def _format_errors(path: Path, error: ValidationError, raw: Any) -> str:
-    lines = [f"{path}: invalid configuration"]
-    for item in error.errors():
-        key = ".".join(str(part) for part in item["loc"])
-        value = item.get("input")
-        if item["type"] == "missing":
-            lines.append(f"  {key}: missing required key")
-        elif item["type"] == "extra_forbidden":
-            lines.append(f"  {key}: unknown key (value {value!r})")
-        else:
-            message = item["msg"].removeprefix("Value error, ")
-            lines.append(f"  {key}: {message} (value {value!r})")
-    return "\n".join(lines)
+def _format_errors(path: Path, error: ValidationError) -> str:
+    """The first problem pydantic found, as one line (file, key path, what, value), and how many more."""
+    errors = error.errors()
+    item = errors[0]
+    key = ".".join(brief(str(part), 40) for part in item["loc"])
+    value = brief(repr(item.get("input")), 60)
+    if item["type"] == "missing":
+        problem = "missing required key"
+    elif item["type"] == "extra_forbidden":
+        problem = f"unknown key (value {value})"
+    else:
+        problem = f"{brief(item['msg'].removeprefix('Value error, '), 150)} (value {value})"
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    return f"{path}: {key}: {problem}{more}"
 
 
 class LoadedConfig:
@@ -247,22 +254,27 @@ def load_config(path: str | Path | None = None) -> LoadedConfig:
         path: the file (default: :func:`default_config_path`).
 
     Raises:
-        ConfigError: unreadable file, YAML syntax, unknown key, bad value or
-            dangling reference; the message names the file, key path and value.
+        ConfigError: unreadable file, YAML syntax or over the limits of
+            :func:`~synthcal.config.yaml_input.read_yaml`, unknown key, bad value or
+            dangling reference; one line of at most :data:`MAX_MESSAGE` characters
+            naming the file, key path and value.
     """
     path = Path(path) if path is not None else default_config_path()
     try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read the configuration ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+        return _load(path)
+    except ConfigError as exc:  # the guarantee, whatever a message quotes (long names, long lists)
+        raise ConfigError(brief(str(exc))) from None
+
+
+def _load(path: Path) -> LoadedConfig:
+    """:func:`load_config`'s work; its messages may still be long."""
+    raw = read_yaml(path)
     if not isinstance(raw, dict):
         raise ConfigError(f"{path}: the top level must be a mapping, got {type(raw).__name__}")
     try:
         config = Config.model_validate(raw)
     except ValidationError as exc:
-        raise ConfigError(_format_errors(path, exc, raw)) from None
+        raise ConfigError(_format_errors(path, exc)) from None
     resolved_scenes = {name: _resolve_scene_paths(path, scene) for name, scene in config.scenes.items()}
     config = config.model_copy(update={"scenes": resolved_scenes})
     _check_references(path, config)

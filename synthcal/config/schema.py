@@ -7,15 +7,20 @@ key path).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
     SerializerFunctionWrapHandler,
+    StrictBool,
+    StrictFloat,
+    StrictInt,
     field_validator,
     model_serializer,
     model_validator,
@@ -24,6 +29,9 @@ from pydantic import (
 from synthcal.config.vocabulary import GRID_AXES, ClassReduction, Dictionary, Images, Segmentation, StnTemplate
 
 __all__ = [
+    "CONFIG_VERSION",
+    "MAX_GRID_CAMERAS",
+    "MAX_IMAGE_SIDE",
     "AxisRange",
     "GridConfig",
     "AppearanceConfig",
@@ -39,16 +47,43 @@ __all__ = [
 ]
 
 
+# The layout of datasets.yaml this code reads (its ``version:`` key).
+CONFIG_VERSION = 1
+# A grid's camera count is a closed form; past this many cameras it is a typo (a step of 1e-12), not a grid.
+MAX_GRID_CAMERAS = 10**12
+# A side above this is a typo too: one 16,384² RGB frame is already 768 MiB before supersampling.
+MAX_IMAGE_SIDE = 16384
+
+
 class StrictModel(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    """Unknown keys refused, instances frozen, and every float finite: an ``.inf`` or ``.nan``
+    would otherwise flow into homographies and be stored as a "complete" store of NaNs.
+
+    Numbers are strict as well, field by field (``StrictInt``, ``StrictFloat``, ``StrictBool``):
+    YAML's ``true`` is not the integer 1, nor ``"5"`` a number (a model-wide ``strict`` would
+    also refuse the lists YAML gives for tuples).
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+def _image_side_range(size: tuple[int, int]) -> tuple[int, int]:
+    if min(size) < 8 or max(size) > MAX_IMAGE_SIDE:
+        raise ValueError(f"image_size must be [width, height] with sides from 8 to {MAX_IMAGE_SIDE} pixels, "
+                         f"got {list(size)}")
+    return size
+
+
+# ``(width, height)`` of the stored images.
+ImageSize = Annotated[tuple[StrictInt, StrictInt], AfterValidator(_image_side_range)]
 
 
 class AxisRange(StrictModel):
     """An inclusive range ``start..stop`` in steps of ``step`` (SPEC §3)."""
 
-    start: float
-    stop: float
-    step: float = 1.0
+    start: StrictFloat
+    stop: StrictFloat
+    step: StrictFloat = 1.0
 
     @field_validator("step")
     @classmethod
@@ -61,7 +96,34 @@ class AxisRange(StrictModel):
     def _non_empty(self) -> AxisRange:
         if self.stop < self.start:
             raise ValueError(f"empty range: stop {self.stop} < start {self.start}")
+        steps = (self.stop - self.start) / self.step  # inf when stop - start overflows
+        if not steps < MAX_GRID_CAMERAS:
+            raise ValueError(f"step {self.step:g} from {self.start:g} to {self.stop:g} gives more than "
+                             f"{MAX_GRID_CAMERAS:.0e} values; raise the step")
         return self
+
+    def count(self, name: str = "") -> int:
+        """How many values :meth:`values` gives, computed without materialising them.
+
+        Args:
+            name: the axis name, as for :meth:`values`.
+        """
+        count = math.floor((self.stop - self.start) / self.step + 1e-9) + 1
+        # The float64 operations of the materialised axis: its last value minus its first.
+        if name == "pan_deg" and count > 1 and np.isclose(self.value_at(count - 1) - self.start, 360.0):
+            count -= 1
+        return count
+
+    def value_at(self, positions: np.ndarray | int) -> np.ndarray:
+        """The values at positions ``0 ≤ k < count``, bit-identical to ``values()[k]``.
+
+        Args:
+            positions: (...,) integer positions.
+
+        Returns:
+            (...,) float64 values ``start + step · k``.
+        """
+        return self.start + self.step * np.asarray(positions, dtype=np.float64)
 
     def values(self, name: str = "") -> np.ndarray:
         """The values of the range.
@@ -73,11 +135,7 @@ class AxisRange(StrictModel):
         Returns:
             (K,) float64 values.
         """
-        count = int(np.floor((self.stop - self.start) / self.step + 1e-9)) + 1
-        values = self.start + self.step * np.arange(count, dtype=np.float64)
-        if name == "pan_deg" and count > 1 and np.isclose(values[-1] - values[0], 360.0):
-            values = values[:-1]
-        return values
+        return self.value_at(np.arange(self.count(name)))
 
 
 class GridConfig(StrictModel):
@@ -98,8 +156,8 @@ class GridConfig(StrictModel):
     x: AxisRange | None = None
     y: AxisRange | None = None
     z: AxisRange | None = None
-    jitter: bool = False
-    xy_relative: bool = False
+    jitter: StrictBool = False
+    xy_relative: StrictBool = False
 
     @model_validator(mode="after")
     def _position_all_or_none(self) -> GridConfig:
@@ -108,6 +166,15 @@ class GridConfig(StrictModel):
             raise ValueError(f"x, y and z must be given together or not at all, got only {given}")
         if self.xy_relative and not given:
             raise ValueError("xy_relative: true needs x, y and z ranges (offsets from the scene's anchor)")
+        return self
+
+    @model_validator(mode="after")
+    def _not_too_many_cameras(self) -> GridConfig:
+        counts = self.counts()
+        if math.prod(counts.values()) > MAX_GRID_CAMERAS:
+            largest = max(counts, key=counts.__getitem__)
+            raise ValueError(f"the grid holds {math.prod(counts.values()):.3g} cameras, more than "
+                             f"{MAX_GRID_CAMERAS:.0e}; raise the step of {largest} ({counts[largest]} values)")
         return self
 
     @model_serializer(mode="wrap")
@@ -136,30 +203,30 @@ class GridConfig(StrictModel):
         axis: AxisRange | None = getattr(self, name)
         return axis
 
+    def counts(self) -> dict[str, int]:
+        """Each of :data:`GRID_AXES` → its number of values (a missing X/Y/Z axis has one)."""
+        return {name: 1 if (axis := self.axis(name)) is None else axis.count(name) for name in GRID_AXES}
+
     def size(self) -> int:
         """Number of cameras in the grid (a missing X/Y/Z axis counts as one value)."""
-        size = 1
-        for name in GRID_AXES:
-            axis = self.axis(name)
-            size *= 1 if axis is None else len(axis.values(name))
-        return size
+        return math.prod(self.counts().values())
 
 
 class AppearanceConfig(StrictModel):
     """Ranges of the per-sample photometric changes (see render.Appearance)."""
 
-    brightness: float = Field(20.0, ge=0)
-    contrast: float = Field(0.2, ge=0, lt=1)
-    blur_sigma: float = Field(0.8, ge=0)
-    noise_sigma: float = Field(3.0, ge=0)
+    brightness: StrictFloat = Field(20.0, ge=0)
+    contrast: StrictFloat = Field(0.2, ge=0, lt=1)
+    blur_sigma: StrictFloat = Field(0.8, ge=0)
+    noise_sigma: StrictFloat = Field(3.0, ge=0)
 
 
 class SplitSizes(StrictModel):
     """Sizes of the per-seed train / test / dictionary splits (SPEC §6)."""
 
-    train: int = Field(3000, ge=1)
-    test: int = Field(500, ge=1)
-    dictionary: int = Field(1000, ge=1)
+    train: StrictInt = Field(3000, ge=1)
+    test: StrictInt = Field(500, ge=1)
+    dictionary: StrictInt = Field(1000, ge=1)
 
     @property
     def total(self) -> int:
@@ -176,15 +243,15 @@ class OsmSourceConfig(StrictModel):
     """
 
     file: Path
-    center: tuple[float, float]
-    size_m: tuple[float, float] = (130.0, 190.0)
-    pixels_per_metre: float = Field(10.0, gt=0, allow_inf_nan=False)
+    center: tuple[StrictFloat, StrictFloat]
+    size_m: tuple[StrictFloat, StrictFloat] = (130.0, 190.0)
+    pixels_per_metre: StrictFloat = Field(10.0, gt=0)
     classes: dict[str, list[str]] | None = None
-    seed: int = 0
+    seed: StrictInt = 0
 
     @field_validator("center")
     @classmethod
-    def _lat_lon(cls, center: tuple[float, float]) -> Any:
+    def _lat_lon(cls, center: tuple[StrictFloat, StrictFloat]) -> Any:
         if not (-90 <= center[0] <= 90 and -180 <= center[1] <= 180):
             raise ValueError(f"center must be [lat, lon] in degrees (-90..90, -180..180), got {list(center)}")
         return center
@@ -216,11 +283,12 @@ class UserSceneConfig(StrictModel):
     image: Path | None = None
     semantic: Path | None = None
     osm: OsmSourceConfig | None = None
-    palette: dict[int, tuple[int, int, int]] | None = None
+    # Class ids are lax: a store's JSON copy of the configuration spells them as strings ("0").
+    palette: dict[int, tuple[StrictInt, StrictInt, StrictInt]] | None = None
     classes: tuple[str, str, str, str] | None = None
-    heading_deg: float = Field(0.0, allow_inf_nan=False)
-    camera_position: tuple[float, float, float] | None = None
-    pixels_per_metre: float = Field(10.0, gt=0, allow_inf_nan=False)
+    heading_deg: StrictFloat = 0.0
+    camera_position: tuple[StrictFloat, StrictFloat, StrictFloat] | None = None
+    pixels_per_metre: StrictFloat = Field(10.0, gt=0)
 
     @field_validator("classes")
     @classmethod
@@ -239,7 +307,7 @@ class UserSceneConfig(StrictModel):
 
     @field_validator("palette")
     @classmethod
-    def _palette_classes(cls, palette: dict[int, tuple[int, int, int]] | None) -> Any:
+    def _palette_classes(cls, palette: dict[StrictInt, tuple[StrictInt, StrictInt, StrictInt]] | None) -> Any:
         for class_id, colour in (palette or {}).items():
             if not 0 <= class_id <= 3:
                 raise ValueError(f"palette class id must be 0..3, got {class_id}")
@@ -290,12 +358,12 @@ class DatasetConfig(StrictModel):
     scene: str
     grid: str | None = None
     poses: Literal["worldcup2014"] | None = None
-    pool_size: int | None = Field(None, ge=1)
+    pool_size: StrictInt | None = Field(None, ge=1)
     dictionary_from: tuple[str, ...] | None = None
-    seed: int | None = Field(None, ge=0)
-    image_size: tuple[int, int] | None = None
+    seed: StrictInt | None = Field(None, ge=0)
+    image_size: ImageSize | None = None
     splits: SplitSizes | None = None
-    min_field_fraction: float | None = Field(None, ge=0, lt=1)
+    min_field_fraction: StrictFloat | None = Field(None, ge=0, lt=1)
     dictionary: Dictionary | None = None
     images: Images | None = None
 
@@ -324,21 +392,14 @@ class DatasetConfig(StrictModel):
 
 
 class Defaults(StrictModel):
-    image_size: tuple[int, int] = (256, 144)
-    focal_reference_width: int = Field(256, ge=1)
-    shard_size: int = Field(64, ge=1)
-    seed: int = Field(0, ge=0)
-    supersample: int = Field(2, ge=1, le=8)
+    image_size: ImageSize = (256, 144)
+    focal_reference_width: StrictInt = Field(256, ge=1)
+    shard_size: StrictInt = Field(64, ge=1)
+    seed: StrictInt = Field(0, ge=0)
+    supersample: StrictInt = Field(2, ge=1, le=8)
     appearance: AppearanceConfig = AppearanceConfig()
     splits: SplitSizes = SplitSizes()
-    split_seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
-
-    @field_validator("image_size")
-    @classmethod
-    def _positive_size(cls, size: tuple[int, int]) -> tuple[int, int]:
-        if min(size) < 8:
-            raise ValueError(f"image_size must be at least 8 × 8 pixels, got {list(size)}")
-        return size
+    split_seeds: tuple[StrictInt, ...] = (0, 1, 2, 3, 4)
 
 
 class TrainingSettings(StrictModel):
@@ -363,23 +424,23 @@ class TrainingSettings(StrictModel):
     ``baseline``; :mod:`synthcal.models.stn`), so BN is an ablation of its own.
     """
 
-    work_size: tuple[int, int] | None = None
-    max_train: int | None = Field(None, ge=1)
-    batch_size: int = Field(16, ge=1)
-    learning_rate: float = Field(1e-3, gt=0)
-    unet_width: int = Field(16, ge=1)
-    unet_depth: int = Field(4, ge=1)
-    unet_epochs: int = Field(20, ge=1)
-    siamese_width: int = Field(32, ge=1)
-    embedding_dim: int = Field(128, ge=2)
-    siamese_epochs: int = Field(20, ge=1)
-    stn_width: int = Field(32, ge=1)
-    stn_epochs: int = Field(40, ge=1)
-    end_to_end_epochs: int = Field(100, ge=3)
-    scene_downsample: int = Field(4, ge=1)
+    work_size: tuple[StrictInt, StrictInt] | None = None
+    max_train: StrictInt | None = Field(None, ge=1)
+    batch_size: StrictInt = Field(16, ge=1)
+    learning_rate: StrictFloat = Field(1e-3, gt=0)
+    unet_width: StrictInt = Field(16, ge=1)
+    unet_depth: StrictInt = Field(4, ge=1)
+    unet_epochs: StrictInt = Field(20, ge=1)
+    siamese_width: StrictInt = Field(32, ge=1)
+    embedding_dim: StrictInt = Field(128, ge=2)
+    siamese_epochs: StrictInt = Field(20, ge=1)
+    stn_width: StrictInt = Field(32, ge=1)
+    stn_epochs: StrictInt = Field(40, ge=1)
+    end_to_end_epochs: StrictInt = Field(100, ge=3)
+    scene_downsample: StrictInt = Field(4, ge=1)
     stn_template: StnTemplate = "retrieved"
     class_reduction: ClassReduction = "sum"
-    batch_norm: bool | None = None
+    batch_norm: StrictBool | None = None
 
     @field_validator("work_size")
     @classmethod
@@ -415,10 +476,10 @@ class ProfileConfig(StrictModel):
     searches (``dictionary:``, for every dataset with an own pool) and which images
     stores keep (``images:``, overriding the datasets')."""
 
-    image_size: tuple[int, int] | None = None
-    shard_size: int | None = Field(None, ge=1)
-    max_pool_size: int | None = Field(None, ge=1)
-    supersample: int | None = Field(None, ge=1, le=8)
+    image_size: ImageSize | None = None
+    shard_size: StrictInt | None = Field(None, ge=1)
+    max_pool_size: StrictInt | None = Field(None, ge=1)
+    supersample: StrictInt | None = Field(None, ge=1, le=8)
     splits: SplitSizes | None = None
     training: TrainingProfile | None = None
     dictionary: Dictionary | None = None
@@ -426,7 +487,7 @@ class ProfileConfig(StrictModel):
 
 
 class Config(StrictModel):
-    version: int = 1
+    version: StrictInt = CONFIG_VERSION
     defaults: Defaults = Defaults()
     grids: dict[str, GridConfig]
     scenes: dict[str, UserSceneConfig] = {}
@@ -434,3 +495,10 @@ class Config(StrictModel):
     # target dataset → the datasets whose pools give its mixed dictionary (SPEC §6)
     mixed_dictionaries: dict[str, tuple[str, ...]] = {}
     profiles: dict[str, ProfileConfig] = {}
+
+    @field_validator("version")
+    @classmethod
+    def _known_version(cls, version: int) -> int:
+        if version != CONFIG_VERSION:  # a later layout may mean other things by the same keys
+            raise ValueError(f"this synthcal reads configuration version {CONFIG_VERSION} only")
+        return version

@@ -49,6 +49,8 @@ __all__ = [
     "DESCRIPTIONS",
     "DEFAULT_READING",
     "ConfigError",
+    "MAX_MESSAGE",
+    "brief",
     "check_dataset_name",
 ]
 
@@ -104,6 +106,20 @@ POSE_SET_SPLITS: dict[str, dict[str, int]] = {"worldcup2014": {"train": 209, "te
 
 class ConfigError(ValueError):
     """Invalid configuration; the message names the file, key and value."""
+
+
+# The longest error message a configuration gets: one terminal line or two, never a wall of text.
+MAX_MESSAGE = 300
+
+
+def brief(text: str, limit: int = MAX_MESSAGE) -> str:
+    """``text`` on one line and at most ``limit`` characters (cut with an ellipsis).
+
+    >>> brief("a\\nb " + "c" * 20, 10)
+    'a b ccccc…'
+    """
+    line = " ".join(text.split())
+    return line if len(line) <= limit else line[: limit - 1] + "…"
 
 
 # A dataset name becomes a file name (``NAME.zarr``): a plain name, never a path.

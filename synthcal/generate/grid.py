@@ -19,6 +19,7 @@ Example
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -49,20 +50,40 @@ def grid_axes(
         ValueError: the grid has no X/Y/Z and the scene no camera position, or
             the grid is relative and no anchor is given.
     """
-    if grid.xy_relative:
-        if anchor is None:
-            raise ValueError("the grid's X/Y are relative to the scene's anchor, but no anchor was given")
-        grid = grid.anchored(anchor)
-    axes = []
-    for i, name in enumerate(GRID_AXES):
-        axis = grid.axis(name)
-        if axis is None:
-            if scene_position is None:
+    axes = _Axes(grid, scene_position, anchor)
+    return [axes.at(i, np.arange(count)) for i, count in enumerate(axes.shape)]
+
+
+class _Axes:
+    """A grid's six axes as closed forms (its shape, the values at positions): sampling never
+    materialises an axis, which may hold up to :data:`~synthcal.config.MAX_GRID_CAMERAS` values."""
+
+    def __init__(self, grid: GridConfig, scene_position: tuple[float, float, float] | None,
+                 anchor: tuple[float, float] | None) -> None:
+        if grid.xy_relative:
+            if anchor is None:
+                raise ValueError("the grid's X/Y are relative to the scene's anchor, but no anchor was given")
+            grid = grid.anchored(anchor)
+        for name in GRID_AXES[3:]:
+            if grid.axis(name) is None and scene_position is None:
                 raise ValueError(f"grid axis {name!r} is not given and the scene has no camera_position")
-            axes.append(np.array([float(scene_position[i - 3])]))
-        else:
-            axes.append(axis.values(name))
-    return axes
+        self.grid = grid
+        self.scene_position = scene_position
+        self.shape = tuple(grid.counts().values())
+        self.size = math.prod(self.shape)
+
+    def at(self, axis: int, positions: np.ndarray) -> np.ndarray:
+        """(K,) float64 values of axis ``axis`` (a :data:`GRID_AXES` position) at ``positions``."""
+        axis_range = self.grid.axis(GRID_AXES[axis])
+        if axis_range is None:
+            assert self.scene_position is not None  # checked in __init__
+            return np.full(len(positions), float(self.scene_position[axis - 3]))
+        return axis_range.value_at(positions)
+
+    def cameras(self, grid_index: np.ndarray) -> np.ndarray:
+        """(K, 6) values of the grid cameras numbered ``grid_index`` (C order over the axes)."""
+        positions = np.unravel_index(grid_index, self.shape)
+        return np.stack([self.at(i, pos) for i, pos in enumerate(positions)], axis=-1)
 
 
 @dataclass(frozen=True)
@@ -102,18 +123,14 @@ def sample_cameras(
     Raises:
         ValueError: ``count`` exceeds the grid size.
     """
-    axes = grid_axes(grid, scene_position, anchor)
-    grid = grid.anchored(anchor) if grid.xy_relative and anchor is not None else grid
-    shape = tuple(len(a) for a in axes)
-    size = int(np.prod(shape))
-    if count > size:
-        raise ValueError(f"{count} samples asked for, but the grid holds only {size} cameras")
+    axes = _Axes(grid, scene_position, anchor)
+    if count > axes.size:
+        raise ValueError(f"{count} samples asked for, but the grid holds only {axes.size} cameras")
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
-    grid_index = rng.choice(size, size=count, replace=False).astype(np.int64)
-    positions = np.unravel_index(grid_index, shape)
-    values = np.stack([axis[pos] for axis, pos in zip(axes, positions, strict=True)], axis=-1)
+    grid_index = rng.choice(axes.size, size=count, replace=False).astype(np.int64)
+    values = axes.cameras(grid_index)
     if grid.jitter:
-        values = _jitter(grid, axes, values, rng)
+        values = _jitter(axes, values, rng)
     return CameraSamples(grid_index=grid_index, values=values)
 
 
@@ -151,48 +168,45 @@ def redraw_cameras(
     rejected = np.flatnonzero(~np.asarray(keep(samples.values), bool))
     if len(rejected) == 0:
         return samples, 0
-    axes = grid_axes(grid, scene_position, anchor)
-    grid = grid.anchored(anchor) if grid.xy_relative and anchor is not None else grid
-    shape = tuple(len(a) for a in axes)
+    axes = _Axes(grid, scene_position, anchor)
     grid_index, values = samples.grid_index.copy(), samples.values.copy()
     taken = set(grid_index.tolist())
     for i in rejected.tolist():
-        grid_index[i], values[i] = _redraw_one(grid, axes, shape, taken, keep, seed, i, max_draws)
+        grid_index[i], values[i] = _redraw_one(axes, taken, keep, seed, i, max_draws)
         taken.add(int(grid_index[i]))
     return CameraSamples(grid_index=grid_index, values=values), len(rejected)
 
 
 def _redraw_one(
-    grid: GridConfig, axes: list[np.ndarray], shape: tuple[int, ...], taken: set[int],
-    keep: Callable[[np.ndarray], np.ndarray], seed: int | tuple[int, ...], sample: int, max_draws: int,
+    axes: _Axes, taken: set[int], keep: Callable[[np.ndarray], np.ndarray], seed: int | tuple[int, ...],
+    sample: int, max_draws: int,
 ) -> tuple[int, np.ndarray]:
     """The first camera of sample ``sample``'s redraw stream that is not taken and that ``keep`` accepts."""
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(4, sample)))
-    size = int(np.prod(shape))
     for _ in range(max_draws):
-        index = int(rng.integers(size))
-        value = np.array([[axis[pos] for axis, pos in zip(axes, np.unravel_index(index, shape), strict=True)]])
-        if grid.jitter:
-            value = _jitter(grid, axes, value, rng)
+        index = int(rng.integers(axes.size))
+        value = axes.cameras(np.array([index]))
+        if axes.grid.jitter:
+            value = _jitter(axes, value, rng)
         if index not in taken and bool(keep(value)[0]):
             return index, value[0]
     raise ValueError(f"sample {sample}: no acceptable camera in {max_draws} draws from the grid")
 
 
-def _jitter(grid: GridConfig, axes: list[np.ndarray], values: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def _jitter(axes: _Axes, values: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Move each value uniformly within its cell, the cell clipped to the range.
 
     Clipping keeps e.g. tilt ≤ 0 (SPEC §2 relies on it); a full-circle pan axis
     wraps instead and is not clipped.
     """
     low, high = values.copy(), values.copy()
-    for i, (name, axis_vals) in enumerate(zip(GRID_AXES, axes, strict=True)):
-        axis = grid.axis(name)
-        if axis is None or len(axis_vals) < 2:
+    for i, (name, count) in enumerate(zip(GRID_AXES, axes.shape, strict=True)):
+        axis = axes.grid.axis(name)
+        if axis is None or count < 2:
             continue
         low[:, i] -= axis.step / 2
         high[:, i] += axis.step / 2
-        if not (name == "pan_deg" and len(axis_vals) * axis.step >= 360.0 - 1e-9):
-            low[:, i] = np.maximum(low[:, i], axis_vals[0])
-            high[:, i] = np.minimum(high[:, i], axis_vals[-1])
+        if not (name == "pan_deg" and count * axis.step >= 360.0 - 1e-9):
+            low[:, i] = np.maximum(low[:, i], axis.value_at(0))
+            high[:, i] = np.minimum(high[:, i], axis.value_at(count - 1))
     return low + rng.uniform(size=values.shape) * (high - low)

@@ -45,6 +45,7 @@ from synthcal.generate.render import (
     render_semantic,
     render_semantic_and_mask,
 )
+from synthcal.generate.resources import check_resources
 from synthcal.scenes import Scene, build_scene, load_user_scene
 from synthcal.store import (
     CAMERA_FIELDS,
@@ -374,6 +375,7 @@ def generate_dataset(
     scheduler: str | None = None,
     progress: bool | None = None,
     on_shard: Callable[[int], None] | None = None,
+    max_memory: int | None = None,
 ) -> Path:
     """Generate (or resume, or find finished) the store of one dataset.
 
@@ -384,14 +386,17 @@ def generate_dataset(
         scheduler: a Dask scheduler address; overrides ``workers``.
         progress: show a progress bar (None: when standard error is a terminal).
         on_shard: called after each finished shard with its sample count.
+        max_memory: the memory budget in bytes (None: this machine's memory;
+            :func:`~synthcal.generate.resources.check_resources`).
 
     Returns:
         the path of the complete store.
 
     Raises:
         ConfigError: a scene that cannot be loaded, a grid leaving the scene, or
-            a store at the destination made from another configuration. Nothing is
-            written in those cases.
+            a store at the destination made from another configuration; a
+            :class:`~synthcal.generate.resources.ResourceError` when the run needs
+            more memory or disk than there is. Nothing is written in those cases.
         StoreLocked: another process is generating this store (or drawing its
             splits); nothing is touched.
     """
@@ -400,6 +405,10 @@ def generate_dataset(
     scene = load_scene(spec)
     _check_grid_inside_scene(spec, scene)
     spec = anchored_spec(spec, scene)
+    if not final.exists():
+        partial = final.with_name(final.name + ".partial")
+        check_resources(spec, scene.semantic.size, out_dir, 1 if scheduler is not None else workers, max_memory,
+                        fresh=not partial.exists())
     if scheduler is not None and not final.exists():
         check_scheduler(scheduler)  # before anything is written: an unreachable one leaves nothing behind
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -67,3 +67,54 @@ def test_jitter_stays_in_cell_and_range():
     assert np.all(np.abs(offset).max(axis=0) > 0.4 * steps)  # really spread over the cell
     assert jittered.values[:, 1].max() <= 0.0  # tilt never above the grid's top
     assert jittered.values[:, 0].min() < -180.0  # the full-circle pan wraps, unclipped
+
+
+def materialised(axis: AxisRange, name: str) -> np.ndarray:
+    """The axis as it was built before counts had a closed form (the reference): every value, then
+    a full-circle pan's upper end dropped."""
+    values = axis.start + axis.step * np.arange(int(np.floor((axis.stop - axis.start) / axis.step + 1e-9)) + 1)
+    if name == "pan_deg" and len(values) > 1 and np.isclose(values[-1] - values[0], 360.0):
+        values = values[:-1]
+    return values
+
+
+def test_closed_form_counts_match_the_materialised_axes():
+    rng = np.random.default_rng(23)
+    steps = [1.0, 0.5, 0.1, 1 / 3, 15.0, 0.25, 7.5, 2.2]
+    checked = 0
+    for _ in range(3000):
+        step = float(rng.choice(steps)) * float(rng.choice([1, 1, 10, 0.01]))
+        start = float(np.round(rng.uniform(-400, 400), int(rng.integers(0, 3))))
+        # Stops on, near and between grid points (and whole circles, where pan drops its end).
+        k = int(rng.integers(0, 60))
+        stop = start + float(rng.choice([k * step, k * step + step / 2, k * step * (1 + 1e-12), 360.0, 0.0]))
+        axis = AxisRange(start=start, stop=stop, step=step)
+        for name in ("pan_deg", "tilt_deg"):
+            reference = materialised(axis, name)
+            assert axis.count(name) == len(reference), (axis, name)
+            assert axis.values(name).tobytes() == reference.tobytes()
+            checked += name == "pan_deg" and len(reference) < len(materialised(axis, "tilt_deg"))
+    assert checked > 10  # full circles really came up
+
+
+def test_a_grid_of_10_to_the_11_cameras_is_sampled_without_materialising_an_axis():
+    pan = AxisRange(start=-50, stop=50, step=1e-9)  # 1e11 values: 800 GB as an array
+    grid = GridConfig(pan_deg=pan, tilt_deg=AxisRange(start=-10, stop=-10), focal_px=AxisRange(start=500, stop=500),
+                      jitter=True)
+    assert grid.size() == pan.count() == 100_000_000_001
+    samples = sample_cameras(grid, 20, seed=5, scene_position=(1.0, 2.0, 3.0))
+    assert len(set(samples.grid_index.tolist())) == 20 and samples.grid_index.max() < grid.size()
+    offset = samples.values[:, 0] - (-50 + 1e-9 * samples.grid_index)
+    assert np.all(np.abs(offset) <= 1e-9 / 2 + 1e-12)
+    np.testing.assert_array_equal(samples.values[:, 1:], [[-10, 500, 1, 2, 3]] * 20)
+
+
+def test_an_axis_over_10_to_the_12_values_is_refused():
+    with pytest.raises(ValueError, match="step 1e-12 from -50 to 50 gives more than 1e\\+12 values"):
+        AxisRange(start=-50, stop=50, step=1e-12)
+
+
+def test_a_grid_over_10_to_the_12_cameras_names_its_largest_axis():
+    with pytest.raises(ValueError, match=r"1\.82e\+13 cameras.*raise the step of focal_px \(9000001 values\)"):
+        GridConfig(pan_deg=AxisRange(start=-50, stop=50, step=1), tilt_deg=AxisRange(start=-20, stop=0, step=1e-3),
+                   focal_px=AxisRange(start=100, stop=1000, step=1e-4))

@@ -46,12 +46,23 @@ def temporaries(folder: Path) -> list[Path]:
 
 # --- item 3: Ctrl-C ------------------------------------------------------------------------------
 
+def test_importing_the_slow_shards_helper_slows_nothing():
+    """Doctest collection imports every module under tests/: the helper must patch only when asked."""
+    sys.path.insert(0, str(TESTS))
+    try:
+        slow = importlib.import_module("synthcal_slow_shards")
+    finally:
+        sys.path.remove(str(TESTS))
+    pipeline = importlib.import_module("synthcal.generate.pipeline")
+    assert pipeline.run_shard is not slow.run_shard
+
+
 def test_sigint_stops_a_two_worker_generate_and_the_rerun_completes(tmp_path, capsys):
     out = tmp_path / "out"
     args = ["generate", "intersection-1", "--profile", "smoke", "--n", "160", "--out", str(out), "--workers", "2",
             "--quiet", "--config", str(CONFIG)]
     # Every shard takes ≥ 1 s (synthcal_slow_shards): 20 shards on 2 workers keep them busy for 10 s.
-    code = f"import sys; sys.path.insert(0, {str(TESTS)!r}); import synthcal_slow_shards; " \
+    code = f"import sys; sys.path.insert(0, {str(TESTS)!r}); import synthcal_slow_shards; synthcal_slow_shards.install(); " \
            "from synthcal.cli import main; sys.exit(main(sys.argv[1:]))"
     proc = subprocess.Popen([sys.executable, "-c", code, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)

@@ -1,4 +1,4 @@
-"""Splits of a store as PyTorch datasets (SPEC §6, §9).
+"""Splits of a store as PyTorch-style datasets (SPEC §6, §9); torch is imported by the first item read.
 
 >>> train = load_split("out/intersection-1.zarr", "train", seed=0)   # doctest: +SKIP
 >>> image, semantic, H = train[0]                                       # doctest: +SKIP
@@ -29,11 +29,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
-from torch.utils.data import Dataset
 
 from synthcal.store import array_at, attributes, open_store, read_samples
 from synthcal.store.splits import (
@@ -44,6 +42,9 @@ from synthcal.store.splits import (
     read_split_indices,
     store_spec,
 )
+
+if TYPE_CHECKING:
+    import torch
 
 __all__ = ["StoreScene", "SplitDataset", "load_split", "load_splits", "read_scene"]
 
@@ -82,8 +83,14 @@ def read_scene(store: str | Path) -> StoreScene:
     )
 
 
-class SplitDataset(Dataset):
+class SplitDataset:
     """One split held in memory; items are ``(image, semantic, homography)`` tensors.
+
+    A map-style dataset (``len`` and integer indexing), which is all
+    ``torch.utils.data.DataLoader`` asks of one. It does not derive from torch's
+    ``Dataset`` so that loading a split imports no torch: estimators that use the
+    arrays alone (and the harness's process for each run) skip its seconds of import;
+    torch is imported by the first item read.
 
     Attributes:
         images: (K, H, W, 3) uint8.
@@ -149,6 +156,8 @@ class SplitDataset(Dataset):
         return len(self.indices)
 
     def __getitem__(self, k: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        import torch
+
         image = torch.from_numpy(self.images[k]).permute(2, 0, 1).float().div_(255.0)
         semantic = torch.from_numpy(self.semantics[k].astype(np.int64))
         return image, semantic, torch.from_numpy(self.homographies[k].copy())

@@ -38,8 +38,8 @@ def test_a_numpy_estimators_run_process_imports_no_torch(estimator, smoke_stores
     run = {"dataset": "intersection-1", "store": str(store), "mixed": None, "store_hash": "", "estimator": estimator,
            "model": estimator, "seed": 0}
     seen = fresh("import sys, json; from pathlib import Path; "
-                 "from synthcal.eval.isolation import _estimate, _run_child; from synthcal.eval.runs import Run; "
-                 f"out = _estimate(Run(**{run!r}), Path({str(tmp_path)!r}), False, lambda stage: None); "
+                 "from synthcal.eval.isolation import estimate_in_process, run_child; from synthcal.eval.runs import Run; "
+                 f"out = estimate_in_process(Run(**{run!r}), Path({str(tmp_path)!r}), False, lambda stage: None); "
                  f"print(json.dumps({{'torch': {TORCH}, 'error': out['error'], 'sizes': out['sizes'], "
                  "'estimates': len(out['estimates'])}))")
     assert seen["error"] == "" and seen["estimates"] == seen["sizes"]["test"] > 0

@@ -60,7 +60,7 @@ from synthcal.store import StoreError
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent
 
-__all__ = ["DEFAULT_TIMEOUT", "estimate_isolated", "load_run_split", "run_child", "sweep_exchanges",
+__all__ = ["DEFAULT_TIMEOUT", "estimate_in_process", "estimate_isolated", "load_run_split", "run_child", "sweep_exchanges",
            "write_text_atomic"]
 
 # Per-run time limit of ``synthcal bench --timeout`` (seconds): generous, it only
@@ -167,7 +167,7 @@ def _plain_estimates(estimates: Any, n: int) -> Any:
     return _NOT_NUMERIC
 
 
-def _estimate(run: Run, results: Path, progress: bool, stage: Callable[[str], None]) -> dict[str, Any]:
+def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable[[str], None]) -> dict[str, Any]:
     """Load the run's data read-only, fit and predict; the outcome as JSON-ready data.
 
     Returns:
@@ -235,7 +235,7 @@ def run_child(exchange: str) -> None:
         (folder / "stage").write_text(name, encoding="utf-8")
 
     run = Run(**request["run"])
-    outcome = _estimate(run, Path(request["results"]), request["progress"], stage)
+    outcome = estimate_in_process(run, Path(request["results"]), request["progress"], stage)
     write_text_atomic(folder / "result.json", json.dumps(outcome))
     # Skip the interpreter's teardown: threads or atexit hooks a plug-in left behind
     # must not hang or crash a run whose result is already written.
@@ -294,7 +294,7 @@ def _signal_name(number: int) -> str:
 
 
 def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | None) -> dict[str, Any]:
-    """:func:`_estimate` in a process of its own, under the time limit (module docstring).
+    """:func:`estimate_in_process` in a process of its own, under the time limit (module docstring).
 
     Args:
         run: the run to fit and predict.

@@ -485,14 +485,17 @@ def test_a_profile_or_dataset_may_ask_for_the_pool_dictionary(data, tmp_path, ca
     # The profile's pool applies to datasets with an own pool; a mixed label keeps its mixed dictionary.
     assert set(collect_results(results)["dataset"]) == {"intersection-1 (pool)", "mixed-1"}
     capsys.readouterr()
-    config["profiles"]["smoke"]["dictionary"] = "all"
-    config["datasets"]["worldcup2014"]["dictionary"] = "pool"
-    path.write_text(yaml.safe_dump(config))
-    assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", "identity",
-                 "--results", str(results), "--config", str(path)]) == 2
-    err = capsys.readouterr().err
-    assert "profiles.smoke.dictionary" in err and "'all'" in err
-    assert "datasets.worldcup2014" in err and "dictionary: pool searches the dataset's own pool" in err
+    # Each mistake alone (a configuration error is one line: the first problem found).
+    for where, value, expected in [(("profiles", "smoke"), "all", ("profiles.smoke.dictionary", "'all'")),
+                                   (("datasets", "worldcup2014"), "pool",
+                                    ("datasets.worldcup2014", "dictionary: pool searches the dataset's own pool"))]:
+        edited = yaml.safe_load(yaml.safe_dump(config))
+        edited[where[0]][where[1]]["dictionary"] = value
+        path.write_text(yaml.safe_dump(edited))
+        assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", "identity",
+                     "--results", str(results), "--config", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert all(text in err for text in expected), err
 
 
 def test_ten_seeds_split_bench_and_table_with_the_all_background_floor(smoke_stores, tmp_path, capsys):

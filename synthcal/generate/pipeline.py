@@ -20,8 +20,10 @@ is the one place that tells them apart.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
+import pickle
 import shutil
 from collections.abc import Callable, Generator
 from contextlib import closing
@@ -45,7 +47,7 @@ from synthcal.generate.render import (
     render_semantic,
     render_semantic_and_mask,
 )
-from synthcal.scenes import Scene, build_scene, load_user_scene
+from synthcal.scenes import Scene, build_scene, freeze, load_user_scene
 from synthcal.store import (
     CAMERA_FIELDS,
     FORMAT_VERSION,
@@ -94,8 +96,6 @@ def _read_scene(spec: DatasetSpec) -> Scene:
 
 def _osm_scene(spec: DatasetSpec) -> Scene:
     """An OpenStreetMap scene (built once per content, cached), with the entry's camera and heading."""
-    import dataclasses
-
     from synthcal.scenes.osm import build_osm_scene
 
     assert spec.user_scene is not None and spec.user_scene.osm is not None
@@ -253,15 +253,39 @@ class ShardTask:
     shard: int
     start: int
     homographies: np.ndarray
+    scene_file: Path | None = None
 
     def done_marker(self) -> Path:
         return self.progress / f"shard-{self.shard:07d}.done"
 
 
+SCENE_FILE = "scene.pickle"
+"""The scene as the parent built it, in the progress folder, for the workers (:func:`_task_scene`)."""
+
+
+def _save_scene(scene: Scene, progress: Path) -> Path:
+    """Write ``scene`` for the workers: unpickling it (≈ 10 ms) replaces building it (0.2–0.8 s) in each."""
+    path = progress / SCENE_FILE
+    with atomic_write(path) as tmp, open(tmp, "wb") as file:
+        pickle.dump(scene, file, protocol=pickle.HIGHEST_PROTOCOL)
+    return path
+
+
+def _task_scene(task: ShardTask) -> Scene:
+    """The task's scene: this process's cached one, else the parent's file, else built here."""
+    key = task.spec.config_hash()
+    if key not in _SCENES and task.scene_file is not None and task.scene_file.is_file():
+        with open(task.scene_file, "rb") as file:
+            scene = pickle.load(file)  # our own file, written by this run's parent (_save_scene)
+        _SCENES.clear()
+        _SCENES[key] = dataclasses.replace(scene, image=freeze(scene.image), semantic=freeze(scene.semantic))
+    return load_scene(task.spec)
+
+
 def run_shard(task: ShardTask) -> int:
     """Render and write one shard, then mark it done; returns its sample count."""
     cv2.setNumThreads(1)  # one process per core: OpenCV's own threads would oversubscribe
-    scene = load_scene(task.spec)
+    scene = _task_scene(task)
     with_images = task.spec.images == "all"  # images: splits renders images when splits are drawn
     images, semantics = render_samples(scene, task.homographies, task.start, task.spec, images=with_images)
     if with_images:
@@ -432,6 +456,9 @@ def _generate_locked(spec: DatasetSpec, scene: Scene, final: Path, workers: int,
         for shard, start in enumerate(range(0, spec.pool_size, size))
     ]
     pending = [task for task in tasks if not task.done_marker().exists()]
+    if pending and (workers > 1 or scheduler is not None):  # in this process the scene is at hand already
+        scene_file = _save_scene(scene, progress_dir)
+        pending = [dataclasses.replace(task, scene_file=scene_file) for task in pending]
     done = spec.pool_size - sum(len(task.homographies) for task in pending)
     with tqdm(total=spec.pool_size, initial=done, unit="sample", desc=spec.name, disable=not progress) as bar:
         try:

@@ -205,21 +205,26 @@ def encode_shard(layout: ShardLayout, samples: np.ndarray) -> bytes | None:
     Returns:
         the file's bytes, or None when every sample equals the fill value (no file).
     """
-    index = np.full((layout.shard_size, 2), _EMPTY, dtype="<u8")
-    frames, offset = [], 0
     fill, codec = layout.fill_value, layout.codec
-    for k, sample in enumerate(samples):
-        if not sample.any() if fill == 0 else bool(np.all(sample == fill)):
-            continue
-        raw = np.ascontiguousarray(sample, dtype=layout.dtype)  # the bytes codec's byte order
+    rows = np.ascontiguousarray(samples, dtype=layout.dtype)  # the bytes codec's byte order
+    flat = rows.reshape(len(rows), -1)
+    # Which samples differ from the fill value, and the index, for the whole shard at
+    # once: per-sample NumPy calls cost more than encoding the small per-sample arrays.
+    present = np.flatnonzero(flat.any(axis=1) if fill == 0 else ~np.all(flat == fill, axis=1))
+    frames, sizes = [], []
+    for k in present.tolist():
+        raw = np.ascontiguousarray(rows[k])  # an array even where a sample is a scalar (codecs take arrays)
         frame = raw.tobytes() if codec is None else codec.encode(raw)
         frames.append(frame)
         if layout.checksum:  # Zarr's crc32c codec: the CRC32C of the encoded chunk, 4 bytes little endian
             frames.append(_crc_bytes(frame))
-        index[k] = (offset, len(frame) + 4 * layout.checksum)
-        offset += int(index[k, 1])
+        sizes.append(len(frame) + 4 * layout.checksum)
     if not frames:
         return None
+    lengths = np.asarray(sizes, dtype="<u8")
+    index = np.full((layout.shard_size, 2), _EMPTY, dtype="<u8")
+    index[present, 0] = np.cumsum(lengths) - lengths
+    index[present, 1] = lengths
     index_bytes = index.tobytes()
     return b"".join([*frames, index_bytes, _crc_bytes(index_bytes)])
 

@@ -64,7 +64,7 @@ from numcodecs.abc import Codec
 from synthcal.store.errors import CorruptStore
 from synthcal.utils.atomic import atomic_write
 
-__all__ = ["ShardLayout", "UnsupportedLayout", "shard_layout", "encode_shard", "write_shard", "read_rows"]
+__all__ = ["ShardLayout", "UnsupportedLayout", "shard_layout", "encode_shard", "write_shard", "read_rows", "read_threads"]
 
 _EMPTY = 2**64 - 1  # offset and length of a chunk absent from its shard
 _SHUFFLE = {"noshuffle": Blosc.NOSHUFFLE, "shuffle": Blosc.SHUFFLE, "bitshuffle": Blosc.BITSHUFFLE}
@@ -342,13 +342,26 @@ def _gather_raw(span: np.ndarray, index: np.ndarray, start: int, positions: np.n
     out[positions] = np.ascontiguousarray(rows).view(layout.dtype).reshape(len(index), *out.shape[1:])
 
 
+def read_threads() -> int:
+    """:func:`read_rows`' default thread count: the CPUs this process may run on.
+
+    Not ``os.cpu_count()``, the machine's count: a container, ``taskset`` or a batch
+    scheduler may allow fewer, and more decoding threads than usable cores only add
+    switching (``benchmarks/load.py`` times 1 against 2 threads).
+    """
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # no affinity call (macOS, Windows)
+        return os.cpu_count() or 1
+
+
 def read_rows(array: zarr.Array, index: np.ndarray, threads: int | None = None) -> np.ndarray:
     """``array[index]`` along the first axis, any order, repeats allowed.
 
     Args:
         array: a store array of shape (N, ...).
         index: (K,) int indices in ``0..N-1``.
-        threads: decoding threads (default: the CPU count).
+        threads: decoding threads (default: :func:`read_threads`).
 
     Returns:
         (K, ...) array of ``array``'s dtype, in ``index``'s order.
@@ -374,7 +387,7 @@ def read_rows(array: zarr.Array, index: np.ndarray, threads: int | None = None) 
         shard = int(shards[positions[0]])
         _read_shard(layout, shard, index[positions] - shard * layout.shard_size, positions, out)
 
-    workers = max(1, min(threads or os.cpu_count() or 1, len(groups)))
+    workers = max(1, min(threads or read_threads(), len(groups)))
     if workers == 1:
         for positions in groups:
             read(positions)

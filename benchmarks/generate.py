@@ -108,7 +108,7 @@ def main() -> None:
         size = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())
         scene_bytes = sum(f.stat().st_size for f in (store / "scene").rglob("*") if f.is_file())
 
-        cli = [str(ROOT / ".venv/bin/synthcal"), "generate", args.dataset, "--quiet", "--config", str(ROOT / "datasets.yaml")]
+        cli = [sys.executable, "-m", "synthcal.cli", "generate", args.dataset, "--quiet", "--config", str(ROOT / "datasets.yaml")]
         small, large = args.n // 4, args.n
         rss_small = peak_rss_mib([*cli, "--n", str(small), "--out", str(work / "m1")])
         rss_large = peak_rss_mib([*cli, "--n", str(large), "--out", str(work / "m2")])

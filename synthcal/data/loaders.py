@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import zarr
 
 from synthcal.store import array_at, attributes, open_store, read_samples
 from synthcal.store.splits import (
@@ -71,9 +72,13 @@ class StoreScene:
     pixels_per_metre: float
 
 
-def read_scene(store: str | Path) -> StoreScene:
-    """The scene stored in a store (``scene/image``, ``scene/semantic``, attributes)."""
-    group = open_store(store)
+def read_scene(store: str | Path, group: zarr.Group | None = None) -> StoreScene:
+    """The scene stored in a store (``scene/image``, ``scene/semantic``, attributes).
+
+    ``group``: the store as the caller opened it (:func:`synthcal.store.open_store`),
+    which saves opening it and checking its manifest again.
+    """
+    group = open_store(store) if group is None else group
     attrs = attributes(group)["scene"]
     return StoreScene(
         name=str(attrs["name"]), image=np.asarray(array_at(group, "scene/image")[:]),
@@ -167,11 +172,6 @@ class SplitDataset:
         return f"SplitDataset({self.store.name}, {self.split}, seed {self.seed}, {len(self)} samples, {kind})"
 
 
-def _has_own_dictionary(store: Path) -> bool:
-    group = open_store(store)
-    return store_spec(group, store).own_dictionary
-
-
 def load_split(
     store: str | Path, split: str, seed: int, mixed: bool | None = None, scene: StoreScene | None = None
 ) -> SplitDataset:
@@ -199,16 +199,17 @@ def load_split(
         raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(SPLIT_NAMES)}")
     if mixed and split != "dictionary":
         raise SplitError(f"{store}: mixed=True: only the dictionary can be mixed (split {split!r})")
+    group = open_store(store)  # once per call: the manifest check costs a stat per shard file
     if mixed is None:
-        mixed = split == "dictionary" and not _has_own_dictionary(store)
-    scene = scene or read_scene(store)
+        mixed = split == "dictionary" and not store_spec(group, store).own_dictionary
+    scene = scene or read_scene(store, group)
     if mixed:
         templates = read_mixed_dictionary(store, seed)
         arrays = read_mixed_samples(templates)
         return SplitDataset(arrays, templates.index, store, split, seed, scene,
                             templates.sources, templates.source, templates.stores)
-    indices = read_split_indices(store, split, seed)
-    return SplitDataset(read_samples(open_store(store), indices), indices, store, split, seed, scene)
+    indices = read_split_indices(store, split, seed, group)
+    return SplitDataset(read_samples(group, indices), indices, store, split, seed, scene)
 
 
 def load_splits(store: str | Path, seed: int, mixed: bool | None = None) -> dict[str, SplitDataset]:

@@ -118,7 +118,7 @@ def load_pool_dictionary(store: str | Path, seed: int, scene: StoreScene | None 
         SplitError: an unknown seed; StoreError: the store cannot be read.
     """
     store = Path(store)
-    open_store(store)  # the manifest check, once
-    indices = pool_dictionary_indices(store, seed)
+    group = open_store(store)  # the manifest check, once
+    indices = pool_dictionary_indices(store, seed, group)
     arrays = {name: LazyRows(store, name, indices) for name in ("image", "semantic", "homography")}
-    return SplitDataset(arrays, indices, store, "dictionary", seed, scene or read_scene(store), pool=True)
+    return SplitDataset(arrays, indices, store, "dictionary", seed, scene or read_scene(store, group), pool=True)

@@ -125,6 +125,7 @@ from synthcal.training import (
     digest,
     embed_templates,
     estimate,
+    reduce_class_map_batches,
     reduce_class_maps,
     reduce_images,
     reduce_scene,
@@ -289,8 +290,8 @@ class PaperEstimator:
             match = self._match(semantics, keys, lambda queries, score, reduction: match_ground_truth(
                 queries, torch.from_numpy(full).to(self.device), score, class_reduction=reduction).index.cpu())
         else:  # lazy (a pool dictionary): streamed, reduced batch by batch; never whole at full size
-            templates = torch.cat([reduce_class_maps(rows, work_size)
-                                   for _, rows in row_batches(dictionary.semantics, _TEMPLATE_BATCH)])
+            templates = reduce_class_map_batches(row_batches(dictionary.semantics, _TEMPLATE_BATCH),
+                                                 len(dictionary.semantics), work_size)
             keys["dictionary"] = digest("streamed", templates, homographies, full_size)
             match = self._match(semantics, keys, lambda queries, score, reduction: streamed_match(
                 queries, dictionary.semantics, score, reduction, self.device))

@@ -43,8 +43,6 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
-import scipy.io
-from scipy.optimize import least_squares
 
 from synthcal.config import POSE_SET_SPLITS, ConfigError, DatasetSpec, GridConfig
 from synthcal.generate.camera import decompose_homography, intrinsics, orient_homography
@@ -102,6 +100,8 @@ class WorldCupPoses:
 @lru_cache(maxsize=1)
 def load_worldcup_poses() -> WorldCupPoses:
     """Read ``train_val.mat`` and ``test.mat`` (MATLAB struct arrays ``annotation``)."""
+    import scipy.io  # here: datasets without poses import this module but never need scipy (≈ 0.1 s)
+
     names, homographies, partition, start = [], [], {}, 0
     for part, filename in _PARTS:
         annotation = scipy.io.loadmat(data_dir() / filename)["annotation"][0]
@@ -278,6 +278,8 @@ def _best_fit(
     Returns:
         (7,) parameters and their RMS reprojection error in pixels.
     """
+    from scipy.optimize import least_squares  # here, as scipy.io above
+
     low, high = bounds
 
     def residuals(params: np.ndarray) -> np.ndarray:

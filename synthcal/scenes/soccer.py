@@ -58,7 +58,6 @@ from importlib import resources
 
 import cv2
 import numpy as np
-import scipy.io
 
 from .base import Scene, freeze
 from .dressing import MaterialLook, add_grain, base_colours, fill_rgb, shade
@@ -112,6 +111,8 @@ def pitch_model() -> tuple[np.ndarray, np.ndarray]:
     """
     ref = resources.files("synthcal") / "data/wc14/worldcup2014.mat"
     with resources.as_file(ref) as path:
+        import scipy.io  # here, not at the top: only the soccer scene reads .mat files (scipy costs ≈ 0.1 s to import)
+
         model = scipy.io.loadmat(str(path))
     points = np.asarray(model["points"], np.float64)
     segments = np.asarray(model["line_segment_index"], np.int64)

@@ -64,7 +64,7 @@ from numcodecs.abc import Codec
 from synthcal.store.errors import CorruptStore
 from synthcal.utils.atomic import atomic_write
 
-__all__ = ["ShardLayout", "UnsupportedLayout", "shard_layout", "encode_shard", "write_shard", "read_rows"]
+__all__ = ["ShardLayout", "UnsupportedLayout", "shard_layout", "encode_shard", "write_shard", "read_rows", "read_threads"]
 
 _EMPTY = 2**64 - 1  # offset and length of a chunk absent from its shard
 _SHUFFLE = {"noshuffle": Blosc.NOSHUFFLE, "shuffle": Blosc.SHUFFLE, "bitshuffle": Blosc.BITSHUFFLE}
@@ -205,21 +205,26 @@ def encode_shard(layout: ShardLayout, samples: np.ndarray) -> bytes | None:
     Returns:
         the file's bytes, or None when every sample equals the fill value (no file).
     """
-    index = np.full((layout.shard_size, 2), _EMPTY, dtype="<u8")
-    frames, offset = [], 0
     fill, codec = layout.fill_value, layout.codec
-    for k, sample in enumerate(samples):
-        if not sample.any() if fill == 0 else bool(np.all(sample == fill)):
-            continue
-        raw = np.ascontiguousarray(sample, dtype=layout.dtype)  # the bytes codec's byte order
+    rows = np.ascontiguousarray(samples, dtype=layout.dtype)  # the bytes codec's byte order
+    flat = rows.reshape(len(rows), -1)
+    # Which samples differ from the fill value, and the index, for the whole shard at
+    # once: per-sample NumPy calls cost more than encoding the small per-sample arrays.
+    present = np.flatnonzero(flat.any(axis=1) if fill == 0 else ~np.all(flat == fill, axis=1))
+    frames, sizes = [], []
+    for k in present.tolist():
+        raw = np.ascontiguousarray(rows[k])  # an array even where a sample is a scalar (codecs take arrays)
         frame = raw.tobytes() if codec is None else codec.encode(raw)
         frames.append(frame)
         if layout.checksum:  # Zarr's crc32c codec: the CRC32C of the encoded chunk, 4 bytes little endian
             frames.append(_crc_bytes(frame))
-        index[k] = (offset, len(frame) + 4 * layout.checksum)
-        offset += int(index[k, 1])
+        sizes.append(len(frame) + 4 * layout.checksum)
     if not frames:
         return None
+    lengths = np.asarray(sizes, dtype="<u8")
+    index = np.full((layout.shard_size, 2), _EMPTY, dtype="<u8")
+    index[present, 0] = np.cumsum(lengths) - lengths
+    index[present, 1] = lengths
     index_bytes = index.tobytes()
     return b"".join([*frames, index_bytes, _crc_bytes(index_bytes)])
 
@@ -337,13 +342,26 @@ def _gather_raw(span: np.ndarray, index: np.ndarray, start: int, positions: np.n
     out[positions] = np.ascontiguousarray(rows).view(layout.dtype).reshape(len(index), *out.shape[1:])
 
 
+def read_threads() -> int:
+    """:func:`read_rows`' default thread count: the CPUs this process may run on.
+
+    Not ``os.cpu_count()``, the machine's count: a container, ``taskset`` or a batch
+    scheduler may allow fewer, and more decoding threads than usable cores only add
+    switching (``benchmarks/load.py`` times 1 against 2 threads).
+    """
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # no affinity call (macOS, Windows)
+        return os.cpu_count() or 1
+
+
 def read_rows(array: zarr.Array, index: np.ndarray, threads: int | None = None) -> np.ndarray:
     """``array[index]`` along the first axis, any order, repeats allowed.
 
     Args:
         array: a store array of shape (N, ...).
         index: (K,) int indices in ``0..N-1``.
-        threads: decoding threads (default: the CPU count).
+        threads: decoding threads (default: :func:`read_threads`).
 
     Returns:
         (K, ...) array of ``array``'s dtype, in ``index``'s order.
@@ -369,7 +387,7 @@ def read_rows(array: zarr.Array, index: np.ndarray, threads: int | None = None) 
         shard = int(shards[positions[0]])
         _read_shard(layout, shard, index[positions] - shard * layout.shard_size, positions, out)
 
-    workers = max(1, min(threads or os.cpu_count() or 1, len(groups)))
+    workers = max(1, min(threads or read_threads(), len(groups)))
     if workers == 1:
         for positions in groups:
             read(positions)

@@ -103,13 +103,15 @@ def _seed_group(group: zarr.Group, store: Path, seed: int) -> zarr.Group:
     return group_at(group, key)
 
 
-def read_split_indices(store: str | Path, split: str, seed: int) -> np.ndarray:
+def read_split_indices(store: str | Path, split: str, seed: int, group: zarr.Group | None = None) -> np.ndarray:
     """The pool indices of one of the store's own splits.
 
     Args:
         store: the store.
         split: ``train``, ``test`` or ``dictionary``.
         seed: the split seed.
+        group: ``store`` as the caller opened it (:func:`~synthcal.store.open_store`): saves
+            opening it and checking its manifest again.
 
     Returns:
         (n,) int64 ascending indices into the store's pool.
@@ -120,18 +122,19 @@ def read_split_indices(store: str | Path, split: str, seed: int) -> np.ndarray:
     store = Path(store)
     if split not in SPLIT_NAMES:
         raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(SPLIT_NAMES)}")
-    seed_group = _seed_group(open_store(store), store, seed)
+    seed_group = _seed_group(open_store(store) if group is None else group, store, seed)
     if split not in seed_group:
         raise SplitError(f"{store}: splits/seed-{seed}/{split}: dataset has no own {split} "
                          f"(its dictionary comes from other datasets: load it as the mixed dictionary)")
     return np.asarray(array_at(seed_group, split)[:])
 
 
-def pool_dictionary_indices(store: str | Path, seed: int) -> np.ndarray:
+def pool_dictionary_indices(store: str | Path, seed: int, group: zarr.Group | None = None) -> np.ndarray:
     """The pool dictionary of a seed: every pool index in neither its train nor its test split.
 
     The whole stored splits are left out (not a profile's capped prefix of them), so no
-    test or train sample is ever a template, whatever the caps.
+    test or train sample is ever a template, whatever the caps. ``group``: as in
+    :func:`read_split_indices`.
 
     Returns:
         (N − n_train − n_test,) int64 ascending pool indices.
@@ -140,10 +143,10 @@ def pool_dictionary_indices(store: str | Path, seed: int) -> np.ndarray:
         SplitError: an unknown seed.
     """
     store = Path(store)
-    size = int(attributes(open_store(store))["N"])
-    keep = np.ones(size, bool)
+    group = open_store(store) if group is None else group
+    keep = np.ones(int(attributes(group)["N"]), bool)
     for split in ("train", "test"):
-        keep[read_split_indices(store, split, seed)] = False
+        keep[read_split_indices(store, split, seed, group)] = False
     return np.flatnonzero(keep).astype(np.int64)
 
 

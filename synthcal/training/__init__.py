@@ -8,7 +8,13 @@ Imports :mod:`synthcal.models`, :mod:`synthcal.config` and NumPy/PyTorch only.
 """
 
 from synthcal.training.cache import StageCache, digest
-from synthcal.training.resolution import NUM_CLASSES, reduce_class_maps, reduce_images, resolution_matrix
+from synthcal.training.resolution import (
+    NUM_CLASSES,
+    reduce_class_map_batches,
+    reduce_class_maps,
+    reduce_images,
+    resolution_matrix,
+)
 from synthcal.training.stages import (
     MATCHING_SCORES,
     PAPER_END_TO_END_EPOCHS,
@@ -35,6 +41,7 @@ __all__ = [
     "WARP_LOSS_NAMES",
     "MATCHING_SCORES",
     "resolution_matrix",
+    "reduce_class_map_batches",
     "reduce_class_maps",
     "reduce_images",
     "digest",

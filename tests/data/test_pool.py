@@ -106,3 +106,43 @@ def test_the_siamese_search_over_the_pool_equals_brute_force(store, tmp_path):
     assert nearest_embeddings(queries, fitted["embedding"]).index.tolist() == expected.tolist()
     assert (tmp_path / "cache" / "embedding").is_dir()  # beside the other stages
     assert np.isfinite(estimator.predict_semantic(test.semantics)).all()
+
+
+@pytest.mark.parametrize("full, work", [
+    ((144, 256), (128, 72)),  # the quick work size: 2 × 2 footprints (the table)
+    ((36, 64), (16, 18)),  # 4 × 2: 8 pixels, 16-bit codes (the table)
+    ((36, 64), (64, 12)),  # 1 × 3 (the table)
+    ((36, 64), (16, 9)),  # 4 × 4: 16 pixels, one-hot area interpolation
+    ((36, 64), (40, 20)),  # not integer factors: one-hot area interpolation
+])
+def test_reduced_class_maps_are_the_argmax_of_the_area_averaged_one_hot_maps(full, work):
+    """The definition (resolution.py): area-average each class's one-hot map, take the argmax (the lowest
+    class among equals); computed here with torch directly, and for whole footprints by counting."""
+    import torch.nn.functional as F
+
+    from synthcal.training import reduce_class_maps
+
+    rng = np.random.default_rng(5)
+    maps = rng.choice(4, size=(30, *full), p=[0.4, 0.3, 0.2, 0.1]).astype(np.uint8)  # ties and majorities
+    maps[:5] = maps[:5, :1]  # rows of one class: vertical runs
+    one_hot = F.one_hot(torch.from_numpy(maps).long(), 4).permute(0, 3, 1, 2).float()
+    expected = F.interpolate(one_hot, size=work[::-1], mode="area").argmax(1).to(torch.uint8)
+    reduced = reduce_class_maps(maps, work)
+    assert reduced.dtype == torch.uint8 and torch.equal(reduced, expected)
+    fy, fx = full[0] / work[1], full[1] / work[0]
+    if fy.is_integer() and fx.is_integer():
+        blocks = maps.reshape(len(maps), work[1], int(fy), work[0], int(fx))
+        counts = np.stack([(blocks == c).sum(axis=(2, 4)) for c in range(4)], axis=-1)
+        assert np.array_equal(reduced.numpy(), counts.argmax(-1))  # np.argmax: the first of equal counts
+
+
+def test_the_pool_reduced_batch_by_batch_equals_the_whole_array_reduced(store):
+    """What the paper estimator does with a pool dictionary (shard by shard, into one array)."""
+    from synthcal.training import reduce_class_map_batches, reduce_class_maps
+
+    pool, work = load_pool_dictionary(store, 0), tuple(SMOKE_TRAINING["work_size"])
+    whole = reduce_class_maps(np.asarray(pool.semantics), work)
+    streamed = reduce_class_map_batches(pool.semantics.batches(5), len(pool), work)
+    assert len(pool) > 5 and streamed.shape == (len(pool), work[1], work[0]) and torch.equal(streamed, whole)
+    with pytest.raises(ValueError, match="4 maps given, 5 expected"):
+        reduce_class_map_batches([(0, np.asarray(pool.semantics[:4]))], 5, work)

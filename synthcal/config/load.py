@@ -17,6 +17,7 @@ from pydantic import ValidationError
 from synthcal.config.schema import Config, DatasetConfig, ProfileConfig, SplitSizes, TrainingProfile, UserSceneConfig
 from synthcal.config.spec import DatasetSpec
 from synthcal.config.vocabulary import BUILTIN_SCENE_NAMES, POSE_SET_SPLITS, ConfigError, Dictionary, check_dataset_name
+from synthcal.utils.names import did_you_mean
 
 __all__ = ["LoadedConfig", "default_config_path", "load_config"]
 
@@ -64,8 +65,8 @@ class LoadedConfig:
         if profile is None:
             return ProfileConfig()
         if profile not in self.config.profiles:
-            raise ConfigError(f"{self.path}: profiles.{profile}: unknown profile {profile!r}; "
-                              f"known: {', '.join(self.config.profiles)}")
+            raise ConfigError(f"{self.path}: profiles.{profile}: unknown profile {profile!r}"
+                              f"{did_you_mean(profile, self.config.profiles)}; known: {', '.join(self.config.profiles)}")
         return self.config.profiles[profile]
 
     def resolve(self, dataset: str, profile: str | None = None, pool_size: int | None = None) -> DatasetSpec:
@@ -83,7 +84,8 @@ class LoadedConfig:
         cfg = self.config
         if dataset not in cfg.datasets:
             raise ConfigError(
-                f"{self.path}: datasets.{dataset}: unknown dataset {dataset!r}; known: {', '.join(cfg.datasets)}"
+                f"{self.path}: datasets.{dataset}: unknown dataset {dataset!r}{did_you_mean(dataset, cfg.datasets)}; "
+                f"known: {', '.join(cfg.datasets)}"
             )
         prof = self.profile(profile)
         entry = cfg.datasets[dataset]

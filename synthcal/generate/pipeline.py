@@ -59,7 +59,7 @@ from synthcal.store import (
 from synthcal.store.images import IMAGES_ATTR, images_attribute
 from synthcal.store.shards import ShardLayout, write_shard
 from synthcal.utils.atomic import atomic_write, remove_temporaries
-from synthcal.utils.dispatch import check_scheduler, dispatch
+from synthcal.utils.dispatch import check_main_guarded, check_scheduler, dispatch
 from synthcal.utils.progress import show_progress
 
 __all__ = ["load_scene", "anchored_spec", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset",
@@ -394,6 +394,8 @@ def generate_dataset(
             written in those cases.
         StoreLocked: another process is generating this store (or drawing its
             splits); nothing is touched.
+        UnguardedScript: ``workers`` > 1 from a script without ``if __name__ == "__main__":``
+            (its workers would run its calls again); nothing is written.
     """
     out_dir = Path(out_dir)
     final = store_path(out_dir, spec.name)
@@ -402,6 +404,8 @@ def generate_dataset(
     spec = anchored_spec(spec, scene)
     if scheduler is not None and not final.exists():
         check_scheduler(scheduler)  # before anything is written: an unreachable one leaves nothing behind
+    elif scheduler is None and workers > 1:
+        check_main_guarded()  # likewise: workers would re-run an unguarded script's calls
     out_dir.mkdir(parents=True, exist_ok=True)
     with store_lock(final):
         try:

@@ -189,7 +189,7 @@ def test_show_needs_a_positive_count(tmp_path, capsys, value):
         main(["show", str(tmp_path / "x.zarr"), "-n", value, "-o", str(tmp_path / "m.png")])
     assert stop.value.code == 2
     err = capsys.readouterr().err
-    assert f"argument -n: must be an integer ≥ 1 (value '{value}')" in err and "Traceback" not in err
+    assert f"argument -n/--n: must be an integer ≥ 1 (value '{value}')" in err and "Traceback" not in err
     assert not (tmp_path / "m.png").exists()
 
 

@@ -304,9 +304,8 @@ class RunProcesses:
         return process
 
     def finish(self, process: subprocess.Popen[bytes]) -> None:
-        """Kill the process if it still runs, and forget it."""
-        if process.poll() is None:
-            _kill(process)
+        """Kill the process and its group (what it started, also once it has ended), and forget it."""
+        _kill(process)
         with self._lock:
             self._processes.discard(process)
 

@@ -568,7 +568,7 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
     if unknown:
         print(f"estimated time: unknown (no finished run of {', '.join(unknown)} in {args.results} to time by)")
         return True
-    parts = [f"{count} × {mean(seconds[name]) / 60:.1f} min ({name})" for name, count in by_estimator.items()]
+    parts = [f"{count} × {_duration(mean(seconds[name]))} ({name})" for name, count in by_estimator.items()]
     total = sum(count * mean(seconds[name]) for name, count in by_estimator.items()) / workers
     print(f"estimated time: {' + '.join(parts)}"
           f"{f' over {workers} workers' if workers > 1 else ''} ≈ {_duration(total)} "

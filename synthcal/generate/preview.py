@@ -29,7 +29,8 @@ _COMPRESSOR = Blosc(cname="lz4", clevel=5, shuffle=Blosc.SHUFFLE)
 @dataclass(frozen=True)
 class GenerationEstimate:
     """A generation's cost: ``samples`` in the pool, ``remaining`` of them still to render (a
-    resumed store has fewer), ``bytes`` on disk when complete, ``seconds`` to render the rest."""
+    resumed store has fewer), ``bytes`` on disk when complete (samples and scene), ``seconds``
+    to render the rest."""
 
     samples: int
     remaining: int
@@ -65,6 +66,8 @@ def estimate_generation(spec: DatasetSpec, out_dir: str | Path, workers: int = 1
     images, semantics = render_samples(scene, homographies, 0, spec, images=spec.images == "all")
     encoded = sum(len(_COMPRESSOR.encode(np.ascontiguousarray(sample))) for sample in (*images, *semantics))
     per_sample = (time.perf_counter() - started) / count
+    # The store keeps the scene too: at small pool sizes it is most of the store.
+    scene_bytes = sum(len(_COMPRESSOR.encode(np.ascontiguousarray(a))) for a in (scene.image, scene.semantic))
     remaining = _remaining(spec, Path(out_dir))
-    return GenerationEstimate(spec.pool_size, remaining, encoded / count * spec.pool_size,
+    return GenerationEstimate(spec.pool_size, remaining, scene_bytes + encoded / count * spec.pool_size,
                               per_sample * remaining / max(1, workers))

@@ -14,10 +14,10 @@ from typing import Any
 import yaml
 from pydantic import ValidationError
 
+from synthcal.config.names import did_you_mean
 from synthcal.config.schema import Config, DatasetConfig, ProfileConfig, SplitSizes, TrainingProfile, UserSceneConfig
 from synthcal.config.spec import DatasetSpec
 from synthcal.config.vocabulary import BUILTIN_SCENE_NAMES, POSE_SET_SPLITS, ConfigError, Dictionary, check_dataset_name
-from synthcal.utils.names import did_you_mean
 
 __all__ = ["LoadedConfig", "default_config_path", "load_config"]
 

@@ -235,7 +235,8 @@ def evaluate(split: SplitDataset, estimates: Any) -> dict[str, float]:
 
 def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], results: str | Path,
           seeds: Sequence[int] = (0,), profile: str | None = None, *, config: str | Path | None = None,
-          device: str = "auto", timeout: float | None = None, progress: bool = False) -> pd.DataFrame:
+          device: str = "auto", timeout: float | None = None, progress: bool = False,
+          workers: int = 1) -> pd.DataFrame:
     """Fit and score estimators over datasets and seeds, one process per run (resumable).
 
     ``synthcal bench`` as a function, with its defaults for the axes (step-by-step
@@ -255,6 +256,9 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
         device: torch device of the bundled models (``auto``: CUDA when available).
         timeout: seconds each run's process may take; None: no limit.
         progress: progress bars.
+        workers: runs executed side by side, this machine's cores shared among them
+            (:func:`synthcal.eval.harness.run_threads`); the scores agree with one
+            worker's up to floating-point rounding (torch's thread count orders its sums).
 
     Returns:
         one row per finished run of this call: ``dataset``, ``model``, ``seed``, the
@@ -283,5 +287,5 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
     runs = expand_runs(data, datasets, estimators, seeds, profile, training.settings(),
                        segmentations=(training.segmentation,), device=device, limits=limits,
                        dictionary={label: loaded.dictionary(label, profile) for label in datasets})
-    frame = run_sweep(runs, results, progress=progress, timeout=timeout)
+    frame = run_sweep(runs, results, progress=progress, timeout=timeout, workers=workers)
     return frame[frame["run_id"].isin({run.id for run in runs})].reset_index(drop=True)

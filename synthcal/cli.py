@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     import zarr
 
     from synthcal.config import DatasetSpec, LoadedConfig
+    from synthcal.eval.runs import Run
     from synthcal.generate.splits import DrawResult
 
 __all__ = ["main"]
@@ -125,25 +126,99 @@ def _cmd_scene(args: argparse.Namespace) -> None:
     print(write_picture(args.output, draw_scene(scene)))
 
 
-def _cmd_generate(args: argparse.Namespace) -> None:
+def _cmd_generate(args: argparse.Namespace) -> int:
+    """Exit 0, or 1 when the user declines the preview's question (nothing written)."""
     from synthcal.config import load_config
-    from synthcal.generate.pipeline import generate_dataset
+    from synthcal.generate.pipeline import generate_dataset, store_path
 
+    _check_folder(args.out, "--out")
     config = load_config(args.config)
     specs = [_resolve_with_n(config, name, args.profile, args.n) for name in args.datasets]  # validate all first
+    if not _preview_generation(specs, args):
+        print("synthcal: nothing generated", file=sys.stderr)
+        return 1
     paths = []
     for spec in specs:
+        complete = store_path(args.out, spec.name).exists()
         started = time.perf_counter()
         path = generate_dataset(spec, args.out, workers=args.workers, scheduler=args.scheduler,
                                 progress=_progress(args), max_memory=args.max_memory)
         paths.append(path)
-        print(f"{path}  {spec.pool_size} samples  {time.perf_counter() - started:.1f} s")
+        took = "already complete" if complete else f"{time.perf_counter() - started:.1f} s"
+        print(f"{path}  {spec.pool_size} samples  {took}")
     if args.splits:
         from synthcal.generate.splits import draw_splits
 
         # After every store is in, so that sources generated in the same run are found.
         for spec, path in zip(specs, paths, strict=True):
             _print_draw(draw_splits(path, spec.split_seeds, spec.splits, spec.mixed_sources))
+    return 0
+
+
+# Above these, a run asks before it starts (on a terminal, without --yes).
+CONFIRM_BYTES = 5e9
+CONFIRM_SECONDS = 600.0
+
+
+def _preview_generation(specs: Sequence[DatasetSpec], args: argparse.Namespace) -> bool:
+    """One line per store to generate (samples, disk, time here, measured); whether to go on."""
+    from synthcal.generate.pipeline import store_path
+    from synthcal.generate.preview import estimate_generation
+
+    workers = 1 if args.scheduler else args.workers
+    total_bytes = total_seconds = 0.0
+    for spec in specs:
+        if store_path(args.out, spec.name).exists():  # reported as already complete afterwards
+            continue
+        estimate = estimate_generation(spec, args.out, workers)
+        resumed = f" ({estimate.remaining:,} still to render)" if estimate.remaining < estimate.samples else ""
+        where = "on the cluster: unknown; here with 1 worker" if args.scheduler else \
+            f"here with {workers} worker{'s' if workers > 1 else ''}"
+        print(f"{spec.name}: {estimate.samples:,} samples{resumed}, about {_size(estimate.bytes)} on disk, "
+              f"about {_duration(estimate.seconds)} {where} (measured on {min(8, estimate.samples)} samples)",
+              flush=True)
+        total_bytes += estimate.bytes
+        total_seconds += estimate.seconds
+    if total_bytes <= CONFIRM_BYTES and total_seconds <= CONFIRM_SECONDS:
+        return True
+    return _confirm(args, f"generate about {_size(total_bytes)} in about {_duration(total_seconds)}?")
+
+
+def _size(count: float) -> str:
+    """Bytes in words: ``14.2 GB``, ``310 MB``, ``12 kB`` (decimal units, as disks are sold)."""
+    for unit, scale in (("GB", 1e9), ("MB", 1e6)):
+        if count >= scale:
+            return f"{count / scale:.1f} {unit}"
+    return f"{count / 1e3:.0f} kB"
+
+
+def _duration(seconds: float) -> str:
+    """``45 s``, ``12 min``, ``3.5 h``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _confirm(args: argparse.Namespace, question: str) -> bool:
+    """Ask ``question`` on a terminal (standard input and error both); off one, or with ``--yes``, go on."""
+    from synthcal.utils.progress import interactive
+
+    if args.yes or not (interactive(sys.stdin) and interactive(sys.stderr)):
+        return True
+    print(f"{question} [y/N] (--yes skips this question) ", end="", file=sys.stderr, flush=True)
+    try:
+        answer = input()
+    except EOFError:
+        answer = ""
+    return answer.strip().lower() in ("y", "yes")
+
+
+def _check_folder(path: Path, flag: str) -> None:
+    """Refuse a file where a folder is expected, before anything is written."""
+    if path.exists() and not path.is_dir():
+        raise _UserError(f"{flag} {path}: a file of that name exists; {flag} names a folder")
 
 
 def _resolve_with_n(config: LoadedConfig, name: str, profile: str | None, n: int | None) -> DatasetSpec:
@@ -332,6 +407,8 @@ def _cmd_demo(args: argparse.Namespace) -> None:
     from synthcal.generate.pipeline import generate_dataset
     from synthcal.viz import labelled_rows, write_png
 
+    demo_started = time.perf_counter()
+    _check_folder(args.out, "--out")
     config = load_config(args.config)
     out = Path(args.out)
     rows = []
@@ -346,9 +423,9 @@ def _cmd_demo(args: argparse.Namespace) -> None:
         rows.append((name, demo_examples(path)))
     montage = write_png(out / "montage.png", labelled_rows(rows))
     print(f"montage: {montage}  (per dataset two samples with labelled ground: image | semantic map | overlay)")
-    if args.no_bench:
-        return
-    _demo_bench(args, config, out)
+    if not args.no_bench:
+        _demo_bench(args, config, out)
+    print(f"demo: {time.perf_counter() - demo_started:.0f} s in all, {args.workers} workers")
 
 
 def demo_examples(store: Path, count: int = 2) -> list[np.ndarray]:
@@ -385,7 +462,7 @@ def _demo_bench(args: argparse.Namespace, config: LoadedConfig, out: Path) -> No
     started = time.perf_counter()
     runs = expand_runs(out, [DEMO_DATASET], DEMO_ESTIMATORS, seeds, args.profile, training.settings(),
                        segmentations=(training.segmentation,))
-    frame = run_sweep(runs, out / "results", device=args.device, progress=_progress(args))
+    frame = run_sweep(runs, out / "results", device=args.device, progress=_progress(args), workers=args.workers)
     print(f"benchmark: {counted(len(runs), 'run')} in {time.perf_counter() - started:.0f} s; "
           f"results in {out / 'results'}\n")
     _print_tables(frame, None, "md", False, results=out / "results")
@@ -432,6 +509,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from synthcal.eval.harness import check_device, expand_runs, is_finished, plan_lines, run_sweep
     from synthcal.eval.tables import counted
 
+    _check_folder(args.results, "--results")
     config = load_config(args.config)
     training = config.training(args.profile)
     if args.scheduler is None:  # a cluster's workers may have devices this machine lacks
@@ -447,14 +525,17 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     runs = expand_runs(args.data, args.datasets, args.estimator, parse_seeds(args.seeds), args.profile,
                        settings, args.training, args.loss, args.matching, segmentations,
                        device=args.device, limits=_bench_limits(config, args.profile), dictionary=dictionary)
-    print(f"bench: {counted(len(runs), 'run')}, profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
+    todo = runs if args.rerun else [run for run in runs if not is_finished(args.results, run)]
+    print(f"bench: {counted(len(runs), 'run')}: {len(runs) - len(todo)} reused, {len(todo)} to run; "
+          f"profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
     print("\n".join(plan_lines(runs)), flush=True)
-    reused = 0 if args.rerun else sum(is_finished(args.results, run) for run in runs)
-    print(f"{counted(len(runs), 'run')}: {reused} reused, {len(runs) - reused} to run", flush=True)
+    if not _preview_bench(todo, args):
+        print("synthcal: no run started", file=sys.stderr)
+        return 1
     started = time.perf_counter()
     try:
         frame = run_sweep(runs, args.results, scheduler=args.scheduler, progress=_progress(args),
-                          timeout=args.timeout or None, rerun=args.rerun)
+                          timeout=args.timeout or None, rerun=args.rerun, workers=args.workers)
     except KeyboardInterrupt:  # the running run's process is already killed; finished runs stay
         print(f"synthcal: interrupted; finished runs are kept in {args.results}: run the same command again "
               f"to resume", file=sys.stderr)
@@ -471,6 +552,31 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         print(f"{len(failed)} run(s) failed; fix the cause and run the same command again: failed runs are run "
               f"again, finished ones kept")
     return 1 if len(failed) else 0
+
+
+def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
+    """One line: the runs to do × their estimated minutes, from the recorded times of finished runs
+    of the same estimators; whether to go on."""
+    from statistics import mean
+
+    from synthcal.eval.harness import recorded_seconds
+
+    if not todo:
+        return True
+    seconds = recorded_seconds(args.results) if args.results.is_dir() else {}
+    by_estimator = {name: sum(1 for run in todo if run.estimator == name) for name in dict.fromkeys(
+        run.estimator for run in todo)}
+    unknown = [name for name in by_estimator if name not in seconds]
+    workers = 1 if args.scheduler else args.workers
+    if unknown:
+        print(f"estimated time: unknown (no finished run of {', '.join(unknown)} in {args.results} to time by)")
+        return True
+    parts = [f"{count} × {_duration(mean(seconds[name]))} ({name})" for name, count in by_estimator.items()]
+    total = sum(count * mean(seconds[name]) for name, count in by_estimator.items()) / workers
+    print(f"estimated time: {' + '.join(parts)}"
+          f"{f' over {workers} workers' if workers > 1 else ''} ≈ {_duration(total)} "
+          f"(from the recorded times of finished runs)", flush=True)
+    return total <= CONFIRM_SECONDS or _confirm(args, f"run {len(todo)} runs for about {_duration(total)}?")
 
 
 def _cmd_table(args: argparse.Namespace) -> None:
@@ -589,6 +695,23 @@ def _progress(args: argparse.Namespace) -> bool:
     return not getattr(args, "quiet", False) and show_progress()
 
 
+def _add_yes(parser: argparse.ArgumentParser, when: str) -> None:
+    parser.add_argument("--yes", "-y", action="store_true",
+                        help=f"do not ask before a large run ({when}; asked only on a terminal)")
+
+
+# The demo's workers: its 20 runs gain little beyond this, and each holds its data in memory.
+_MAX_DEMO_WORKERS = 8
+
+
+def default_workers() -> int:
+    """The demo's worker processes: this machine's cores (those this process may use), at most
+    :data:`_MAX_DEMO_WORKERS`."""
+    from synthcal.utils.dispatch import usable_cores
+
+    return min(usable_cores(), _MAX_DEMO_WORKERS)
+
+
 def _add_config(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, default=None,
                         help="datasets.yaml to use (default: ./datasets.yaml, else the packaged one)")
@@ -638,12 +761,13 @@ def _add_generate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     p.add_argument("--workers", type=_positive_int, default=1, help="local worker processes (default 1)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the shards on this Dask scheduler (tcp://host:port; it must answer within 5 s)")
-    p.add_argument("--n", type=int, default=None, help="pool size (overrides the configuration)")
+    p.add_argument("-n", "--n", type=int, default=None, help="pool size (overrides the configuration)")
     p.add_argument("--max-memory", type=_byte_size, default=None, metavar="SIZE",
                    help="refuse a run estimated to need more memory, e.g. 8G (default: this machine's memory)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--splits", action="store_true",
                    help="then draw the train/test/dictionary splits of every seed (and mixed dictionaries)")
+    _add_yes(p, f"above {CONFIRM_BYTES / 1e9:g} GB or {CONFIRM_SECONDS / 60:g} min")
     _add_config(p)
     p.set_defaults(func=_cmd_generate)
 
@@ -685,7 +809,8 @@ def _add_verify(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 def _add_show(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("show", help="montage of samples: image | semantic | overlay")
     p.add_argument("store", type=Path, help="the store, NAME.zarr")
-    p.add_argument("-n", type=_positive_int, default=16, help="samples shown, evenly spaced in the pool (default 16)")
+    p.add_argument("-n", "--n", type=_positive_int, default=16,
+                   help="samples shown, evenly spaced in the pool (default 16)")
     p.add_argument("-o", "--output", type=_picture_path, required=True, help="picture to write (.png, .jpg)")
     p.add_argument("--columns", type=_positive_int, default=None, help="samples per row (default: about square)")
     p.set_defaults(func=_cmd_show)
@@ -696,7 +821,9 @@ def _add_demo(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                                      "run a small benchmark on one scene and print its table")
     p.add_argument("--out", type=Path, default=Path("work/demo"), help="output folder (default work/demo)")
     p.add_argument("--profile", default="demo", help="profile of datasets.yaml (default demo)")
-    p.add_argument("--workers", type=_positive_int, default=2, help="local worker processes (default 2)")
+    p.add_argument("--workers", type=_positive_int, default=default_workers(),
+                   help=f"local worker processes: generation, and runs side by side (default {default_workers()}: "
+                        f"this machine's cores, at most {_MAX_DEMO_WORKERS})")
     p.add_argument("--device", default="auto", help="torch device of the models (default auto)")
     p.add_argument("--no-bench", action="store_true", help="generate and draw only")
     _add_config(p)
@@ -746,7 +873,12 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--rerun", action="store_true",
                    help="run every run again, finished ones too (default: reuse the finished runs of the same "
                         "dataset, settings and estimator code)")
+    p.add_argument("--workers", type=_positive_int, default=1,
+                   help="runs executed side by side, this machine's cores shared among them (torch threads per "
+                        "run: cores // WORKERS); scores agree with one worker's up to floating-point rounding "
+                        "(default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    _add_yes(p, f"above {CONFIRM_SECONDS / 60:g} min")
     _add_config(p)
     p.set_defaults(func=_cmd_bench)
 

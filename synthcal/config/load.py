@@ -12,6 +12,7 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
+from synthcal.config.names import did_you_mean
 from synthcal.config.schema import Config, DatasetConfig, ProfileConfig, SplitSizes, TrainingProfile, UserSceneConfig
 from synthcal.config.spec import DatasetSpec
 from synthcal.config.vocabulary import (
@@ -71,8 +72,8 @@ class LoadedConfig:
         if profile is None:
             return ProfileConfig()
         if profile not in self.config.profiles:
-            raise ConfigError(f"{self.path}: profiles.{profile}: unknown profile {profile!r}; "
-                              f"known: {', '.join(self.config.profiles)}")
+            raise ConfigError(f"{self.path}: profiles.{profile}: unknown profile {profile!r}"
+                              f"{did_you_mean(profile, self.config.profiles)}; known: {', '.join(self.config.profiles)}")
         return self.config.profiles[profile]
 
     def resolve(self, dataset: str, profile: str | None = None, pool_size: int | None = None) -> DatasetSpec:
@@ -90,7 +91,8 @@ class LoadedConfig:
         cfg = self.config
         if dataset not in cfg.datasets:
             raise ConfigError(
-                f"{self.path}: datasets.{dataset}: unknown dataset {dataset!r}; known: {', '.join(cfg.datasets)}"
+                f"{self.path}: datasets.{dataset}: unknown dataset {dataset!r}{did_you_mean(dataset, cfg.datasets)}; "
+                f"known: {', '.join(cfg.datasets)}"
             )
         prof = self.profile(profile)
         entry = cfg.datasets[dataset]

@@ -54,12 +54,20 @@ estimates are all invalid is failed too, with the commonest reason
 (``all 8 estimates invalid: non-finite entries``).
 The sweep goes on; a failed run is recorded, and the next sweep
 over it runs it again. ``KeyboardInterrupt`` in the sweep's process (Ctrl-C)
-kills the running run's process (and what it started) and is raised again from
+kills the running runs' processes (and what they started) and is raised again from
 :func:`run_sweep`: finished runs stay, and the next invocation resumes with the
 others. Errors in the data (a missing store or
 split) stop the sweep: before anything runs where :func:`expand_runs` can see them,
 else at the run that meets them. A damaged ``run.json`` (empty, truncated) is
 skipped with a :class:`DamagedRecordWarning` naming it, and its run is done again.
+
+Side by side
+------------
+``run_sweep(..., workers=N)`` executes N runs at once, each in its own process
+started from a thread of the sweep, with ``cores // N`` torch threads
+(:func:`run_threads`). Runs needing the same trained stage share it through the
+stage cache's lock (:mod:`synthcal.training.cache`): one trains it, the others wait
+and load it.
 
 Dask
 ----
@@ -72,8 +80,10 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import threading
 import warnings
 from collections.abc import Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -86,6 +96,7 @@ from synthcal.config import METRICS
 from synthcal.data import read_scene
 from synthcal.eval.isolation import (
     DEFAULT_TIMEOUT,
+    RunProcesses,
     estimate_isolated,
     load_run_split,
     sweep_exchanges,
@@ -107,7 +118,7 @@ from synthcal.eval.runs import (
 )
 from synthcal.eval.scoring import evaluate, summarize
 from synthcal.store import StoreError, attributes, open_store
-from synthcal.utils.dispatch import dispatch
+from synthcal.utils.dispatch import dispatch, usable_cores
 
 __all__ = [
     "AXES",
@@ -126,7 +137,10 @@ __all__ = [
     "is_finished",
     "sweep_exchanges",
     "run_sweep",
+    "run_threads",
     "collect_results",
+    "is_finished",
+    "recorded_seconds",
     "training_budget",
     "table_runs",
 ]
@@ -187,7 +201,8 @@ def with_device(run: Run, device: str | None) -> Run:
 
 
 def execute_run(run: Run, results: str | Path, device: str | None = None, progress: bool = False,
-                timeout: float | None = DEFAULT_TIMEOUT, rerun: bool = False) -> Path:
+                timeout: float | None = DEFAULT_TIMEOUT, rerun: bool = False, threads: int | None = None,
+                processes: RunProcesses | None = None) -> Path:
     """Evaluate one run unless it is finished (ok) or ``rerun``; returns its folder (module docstring).
 
     Args:
@@ -197,9 +212,13 @@ def execute_run(run: Run, results: str | Path, device: str | None = None, progre
         progress: the estimator's own progress bars.
         timeout: seconds the run's process may take (start-up not counted); None or 0: no limit.
         rerun: run it even if it is finished (its results are replaced).
+        threads: torch threads in the run's process (None: torch's default).
+        processes: the sweep's run processes (:class:`~synthcal.eval.isolation.RunProcesses`), when
+            several runs execute at once; None: this run's alone.
 
     Raises:
         StoreError: the run's store or splits cannot be read.
+        SweepStopped: ``processes`` were stopped while this run executed (it records nothing).
         OSError: the results cannot be written (names the file).
     """
     results = Path(results)
@@ -211,7 +230,7 @@ def execute_run(run: Run, results: str | Path, device: str | None = None, progre
     # estimator, in its own process, cannot reach it.
     scene = read_scene(run.store)
     test = load_run_split(run, "test", scene)
-    outcome = estimate_isolated(run, results, progress, timeout)
+    outcome = estimate_isolated(run, results, progress, timeout, threads, processes)
     if "data_error" in outcome:
         raise StoreError(outcome["data_error"])
     estimates, failure = outcome.pop("estimates"), outcome.pop("error")
@@ -255,7 +274,8 @@ def _estimate_columns(estimates: Any, n: int) -> np.ndarray:
 
 
 def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = None, scheduler: str | None = None,
-              progress: bool = True, timeout: float | None = DEFAULT_TIMEOUT, rerun: bool = False) -> pd.DataFrame:
+              progress: bool = True, timeout: float | None = DEFAULT_TIMEOUT, rerun: bool = False,
+              workers: int = 1) -> pd.DataFrame:
     """Execute every run not finished ok (every run: ``rerun``), locally or on a Dask cluster; return all results.
 
     Exchange folders a killed sweep left in ``results`` (:func:`sweep_exchanges`) are removed first.
@@ -265,16 +285,19 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
         results: the results folder.
         device: replaces the runs' device (:func:`with_device`: other runs, other
             ids); None: each run's own.
-        scheduler: a Dask scheduler address, or None to run here, one after another.
-        progress: progress bars (runs; epochs inside the bundled models).
+        scheduler: a Dask scheduler address, or None to run here.
+        progress: progress bars (runs; epochs inside the bundled models while one run runs at a time).
         timeout: seconds each run's process may take; None or 0: no limit.
         rerun: run the finished runs again too (their results are replaced).
+        workers: runs executed side by side here, each with :func:`run_threads` torch threads.
+            The scores agree with one worker's up to floating-point rounding: a run's torch
+            thread count changes the order of its sums, not the run's identity.
 
     Returns:
         :func:`collect_results` of the folder.
 
     Raises:
-        KeyboardInterrupt: Ctrl-C; the running run's process is killed first, the
+        KeyboardInterrupt: Ctrl-C; the running runs' processes are killed first, the
             finished runs stay and a rerun resumes with the others.
     """
     results = Path(results)
@@ -283,17 +306,77 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
     (results / "runs").mkdir(parents=True, exist_ok=True)
     sweep_exchanges(results)
     todo = list(runs) if rerun else [run for run in runs if not is_finished(results, run)]
-    bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="runs", unit="run", disable=not progress)
-    # Here: one run after another, with the estimators' own progress bars; on a cluster: none.
-    execute = functools.partial(execute_run, results=str(results), progress=progress and scheduler is None,
-                                timeout=timeout, rerun=rerun)
+    # Position 1: a run's own epoch bars (another process, which knows nothing of this one) draw on the
+    # line above, so that neither hides the other.
+    bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="runs", unit="run", disable=not progress,
+               position=1 if scheduler is None else 0)
     try:
-        for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
-            bar.set_postfix_str(folder.name)
-            bar.update()
+        if scheduler is not None:  # on a cluster: no estimator bars
+            execute = functools.partial(execute_run, results=str(results), progress=False, timeout=timeout,
+                                        rerun=rerun)
+            for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
+                bar.set_postfix_str(folder.name)
+                bar.update()
+        else:
+            _run_here(todo, results, timeout, max(1, workers), bar, progress, rerun)
     finally:  # on Ctrl-C too: the bar's line ends before whatever is printed next
         bar.close()
     return collect_results(results)
+
+
+def run_threads(workers: int) -> int:
+    """torch threads of each of ``workers`` runs executed side by side: this machine's cores shared out, at least 1."""
+    return max(1, usable_cores() // max(1, workers))
+
+
+def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers: int, bar: tqdm,
+              progress: bool, rerun: bool) -> None:
+    """Execute runs ``workers`` at a time, each in its own process started from a thread of ours.
+
+    The bar names the runs executing. The estimators draw their own bars only when one run
+    executes at a time: several processes drawing on the same line would garble it.
+    """
+    processes = RunProcesses()
+    running: list[str] = []
+    lock = threading.Lock()
+
+    def label(run_id: str, starts: bool) -> None:
+        with lock:
+            if starts:
+                running.append(run_id)
+            else:
+                running.remove(run_id)
+            bar.set_postfix_str(", ".join(running), refresh=True)
+
+    def execute(run: Run) -> None:
+        label(run.id, True)
+        try:
+            execute_run(run, results, progress=progress and workers == 1, timeout=timeout, rerun=rerun,
+                        threads=run_threads(workers), processes=processes)
+        finally:
+            label(run.id, False)
+
+    pool = ThreadPoolExecutor(workers, thread_name_prefix="run")
+    try:
+        for future in as_completed([pool.submit(execute, run) for run in todo]):
+            future.result()  # a data error stops the sweep
+            bar.update()
+    except BaseException:  # Ctrl-C, a data error: the other runs' processes are killed, not awaited
+        processes.stop()
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown()
+
+
+def recorded_seconds(results: str | Path) -> dict[str, list[float]]:
+    """The seconds each finished (ok) run took, by estimator name as given: what a sweep's preview
+    estimates its runs by. A damaged record is left out (with a :class:`DamagedRecordWarning`)."""
+    seconds: dict[str, list[float]] = {}
+    for path in sorted((Path(results) / "runs").glob("*/run.json")):
+        record = read_record(path)
+        if record is not None and record["status"] == "ok" and isinstance(record.get("seconds"), (int, float)):
+            seconds.setdefault(str(record["run"].get("estimator")), []).append(float(record["seconds"]))
+    return seconds
 
 
 def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> pd.DataFrame:

@@ -43,6 +43,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import traceback
 import warnings
@@ -60,7 +61,8 @@ from synthcal.store import StoreError
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent
 
-__all__ = ["DEFAULT_TIMEOUT", "estimate_in_process", "estimate_isolated", "load_run_split", "run_child", "sweep_exchanges",
+__all__ = ["DEFAULT_TIMEOUT", "RunProcesses", "SweepStopped", "estimate_in_process", "estimate_isolated",
+           "load_run_split", "run_child",
            "write_text_atomic"]
 
 # Per-run time limit of ``synthcal bench --timeout`` (seconds): generous, it only
@@ -293,7 +295,59 @@ def _signal_name(number: int) -> str:
         return "unnamed"
 
 
-def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | None) -> dict[str, Any]:
+class SweepStopped(Exception):
+    """The sweep stopped (Ctrl-C, another run's data error) while this run's process ran: no result."""
+
+
+class RunProcesses:
+    """The run processes of one sweep, which may run several at once from threads: stopping the
+    sweep kills them all, and none starts afterwards."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._processes: set[subprocess.Popen[bytes]] = set()
+        self.stopped = False
+
+    def start(self, command: list[str], env: dict[str, str]) -> subprocess.Popen[bytes]:
+        """Start a run's process (its own session, no standard input).
+
+        Raises:
+            SweepStopped: the sweep has stopped.
+        """
+        with self._lock:  # so that stop() cannot miss a process started meanwhile
+            if self.stopped:
+                raise SweepStopped
+            # Its own session: a kill reaches the processes it starts (data loaders), and a
+            # Ctrl-C at the terminal reaches only the sweep, which then kills it.
+            process = subprocess.Popen(command, stdin=subprocess.DEVNULL, start_new_session=True, env=env)
+            self._processes.add(process)
+        return process
+
+    def finish(self, process: subprocess.Popen[bytes]) -> None:
+        """Kill the process and its group (what it started, also once it has ended), and forget it."""
+        _kill(process)
+        with self._lock:
+            self._processes.discard(process)
+
+    def stop(self) -> None:
+        """Kill every running run's process; later :meth:`start` calls raise :class:`SweepStopped`."""
+        with self._lock:
+            self.stopped = True
+            processes = list(self._processes)
+        for process in processes:
+            _kill(process)
+
+
+def _child_environment(threads: int | None) -> dict[str, str]:
+    """This process's environment, with the run's thread count for torch and the BLAS libraries."""
+    env = dict(os.environ)
+    if threads is not None:  # torch reads OMP_NUM_THREADS when it is imported
+        env.update({name: str(threads) for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")})
+    return env
+
+
+def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | None, threads: int | None = None,
+                      processes: RunProcesses | None = None) -> dict[str, Any]:
     """:func:`estimate_in_process` in a process of its own, under the time limit (module docstring).
 
     Args:
@@ -301,6 +355,8 @@ def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | 
         results: the results folder; the exchange folder with the process lives beside it.
         progress: whether the process shows progress bars.
         timeout: seconds the process may take after its start-up; None: no limit.
+        threads: torch's (and BLAS's) threads in the process; None: their defaults.
+        processes: the sweep's run processes (several runs at once); None: this run's alone.
 
     Returns:
         The outcome as plain JSON data: ``estimates`` (or None), ``error``, ``traceback``,
@@ -317,13 +373,14 @@ def estimate_isolated(run: Run, results: Path, progress: bool, timeout: float | 
                    "import sys; from synthcal.eval.isolation import run_child; run_child(sys.argv[1])",
                    str(exchange)]
         started = time.monotonic()
-        # Its own session: a kill reaches the processes it starts (data loaders), and a
-        # Ctrl-C at the terminal reaches only the sweep, which then kills it (finally).
-        process = subprocess.Popen(command, stdin=subprocess.DEVNULL, start_new_session=True)
+        processes = RunProcesses() if processes is None else processes
+        process = processes.start(command, _child_environment(threads))
         try:
             status = _wait(process, exchange / "stage", timeout)
-        finally:
-            _kill(process)  # what it started, if it has ended by itself
+        finally:  # Ctrl-C here: kill it before going on
+            processes.finish(process)
+        if processes.stopped and not (exchange / "result.json").exists():  # killed by the sweep, not the estimator
+            raise SweepStopped
         seconds = time.monotonic() - started
         stage = (exchange / "stage").read_text(encoding="utf-8") if (exchange / "stage").exists() else "start"
         try:

@@ -63,7 +63,7 @@ from synthcal.store import (
 from synthcal.store.images import IMAGES_ATTR, images_attribute
 from synthcal.store.shards import ShardLayout, write_shard
 from synthcal.utils.atomic import atomic_write, remove_temporaries
-from synthcal.utils.dispatch import check_scheduler, dispatch, worker_pool
+from synthcal.utils.dispatch import check_main_guarded, check_scheduler, dispatch, worker_pool
 from synthcal.utils.progress import show_progress
 
 __all__ = ["load_scene", "anchored_spec", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset",
@@ -434,12 +434,16 @@ def generate_dataset(
             more memory or disk than there is. Nothing is written in those cases.
         StoreLocked: another process is generating this store (or drawing its
             splits); nothing is touched.
+        UnguardedScript: ``workers`` > 1 from a script without ``if __name__ == "__main__":``
+            (its workers would run its calls again); nothing is written.
     """
     out_dir = Path(out_dir)
     final = store_path(out_dir, spec.name)
     # Local workers start first: their start-up (≈ 0.5 s of imports each) overlaps building
     # the scene and the store's skeleton here.
     local = workers if scheduler is None and not final.exists() else 1
+    if local > 1:
+        check_main_guarded()  # before any worker starts: each would re-run an unguarded script's calls
     with worker_pool(local, preload=(__name__,)) as pool:
         scene = load_scene(spec)
         _check_grid_inside_scene(spec, scene)

@@ -30,12 +30,14 @@ import sys
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
+from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 if TYPE_CHECKING:
     from dask.distributed import Client
 
-__all__ = ["CONNECT_TIMEOUT", "SchedulerUnreachable", "check_scheduler", "dispatch", "worker_pool", "die_with_parent"]
+__all__ = ["CONNECT_TIMEOUT", "SchedulerUnreachable", "UnguardedScript", "check_main_guarded", "check_scheduler",
+           "dispatch", "worker_pool", "die_with_parent", "usable_cores"]
 
 CONNECT_TIMEOUT = 5.0
 """Seconds to wait for a Dask scheduler to answer (Dask's own default is 30)."""
@@ -44,6 +46,44 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def usable_cores() -> int:
+    """The CPU cores this process may run on (its affinity where the OS has one), at least 1."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
+class UnguardedScript(RuntimeError):
+    """Worker processes would re-run the main script, which has no ``if __name__ == "__main__":``."""
+
+
+def check_main_guarded() -> None:
+    """Refuse to start spawned workers from a script without a ``__main__`` guard.
+
+    A spawned worker imports the main script again to find the task's function; without
+    the guard, that import runs the script's calls again (a second ``generate`` of the same
+    store in every worker, which fails on the store's lock with a traceback per worker).
+
+    Raises:
+        UnguardedScript: naming the script.
+    """
+    import ast
+
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or path is None or getattr(main, "__spec__", None) is not None:  # -c, a notebook, -m: safe
+        return
+    try:
+        tree = ast.parse(Path(path).read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
+        return
+    for node in tree.body:
+        if isinstance(node, ast.If) and "__main__" in ast.unparse(node.test) and "__name__" in ast.unparse(node.test):
+            return
+    raise UnguardedScript(f"{path}: workers > 1 start processes that import this script again and so re-run its "
+                          f"calls: put them under `if __name__ == \"__main__\":` (or use workers=1)")
 
 
 def die_with_parent(parent: int) -> None:
@@ -211,6 +251,7 @@ def _on_cluster(fn: Callable[[T], R], tasks: Sequence[T], scheduler: str) -> Ite
 
 def _on_processes(fn: Callable[[T], R], tasks: Sequence[T], pool: ProcessPoolExecutor) -> Iterator[R]:
     """:func:`dispatch` on local processes; stopping early terminates them (module docstring)."""
+    check_main_guarded()
     parent = os.getpid()
     try:
         call = functools.partial(_guarded, fn, parent)

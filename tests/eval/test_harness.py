@@ -278,7 +278,7 @@ def test_bench_and_table_errors_name_the_path(data, tmp_path, capsys):
     assert main(["table", str(tmp_path / "nowhere")]) == 2
     assert main(["table", str(tmp_path)]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert err[0].startswith(f"synthcal: error: {results / 'runs'}: ") and "Not a directory" in err[0]
+    assert err[0] == f"synthcal: error: --results {results}: a file of that name exists; --results names a folder"
     assert err[1:] == [f"synthcal: error: {tmp_path / 'nowhere'}: no such results folder",
                        f"synthcal: error: {tmp_path}: no finished runs"]
     with pytest.raises(SystemExit) as exit_status:
@@ -641,3 +641,40 @@ def test_a_crash_dump_goes_to_the_runs_log_and_the_terminal_gets_one_line(data, 
     dump = log.read_text()
     assert "Fatal Python error: Segmentation fault" in dump and "in predict" in dump
     assert record_of(results, run_id)["log"] == str(log)
+
+
+# --- issue 24: runs side by side ---------------------------------------------------------------
+
+RENDEZVOUS = "synthcal_concurrent_plugins:RendezvousEstimator"
+
+
+def test_workers_run_side_by_side_with_cores_shared_out(data, tmp_path, monkeypatch):
+    from synthcal.utils.dispatch import usable_cores
+
+    monkeypatch.setenv("SYNTHCAL_TEST_RENDEZVOUS", str(tmp_path / "meet"))
+    (tmp_path / "meet").mkdir()
+    assert bench(data, tmp_path / "results", RENDEZVOUS, extra=("--workers", "2")) == 0
+    histories = [record_of(tmp_path / "results", run_id)["history"]
+                 for run_id in collect_results(tmp_path / "results")["run_id"]]
+    assert len(histories) == 2  # seeds 0 and 1, each met the other while fitting: they ran at once
+    assert all(h["met"] and h["threads"] == max(1, usable_cores() // 2) for h in histories)
+
+
+def test_two_workers_score_as_one_and_train_a_shared_stage_once(data, tmp_path, capsys):
+    """baseline and proposed need the same Siamese: run at once, one trains it, the other waits and loads it."""
+    models = ("baseline", "proposed", "identity")
+    assert bench(data, tmp_path / "one", *models, seeds="0") == 0
+    assert bench(data, tmp_path / "two", *models, seeds="0", extra=("--workers", "2")) == 0
+    one, two = (collect_results(tmp_path / name).set_index("run_id") for name in ("one", "two"))
+    assert sorted(one.index) == sorted(two.index) and len(one) == 3
+    trained = [record_of(tmp_path / "two", run_id).get("history", {}) for run_id in two.index]
+    assert sum("siamese" in history for history in trained) == 1
+    assert len(list((tmp_path / "two" / "cache" / "siamese").glob("*.pt"))) == 1
+    for run_id in one.index:
+        a, b = (pd.read_csv(tmp_path / name / "runs" / run_id / "metrics.csv") for name in ("one", "two"))
+        scores = ["iou", "iou_bg", "iou_weighted", "iou_part", "iou_whole"]
+        if one.loc[run_id, "model"] == "identity":  # no torch: bit-identical
+            pd.testing.assert_frame_equal(a, b)
+        else:  # a run's torch thread count (cores // workers) orders its sums: rounding differs, nothing else
+            np.testing.assert_allclose(a[scores].to_numpy(), b[scores].to_numpy(), rtol=0, atol=1e-6)
+            assert (a[["test_index", "pool_index", "failed"]] == b[["test_index", "pool_index", "failed"]]).all().all()

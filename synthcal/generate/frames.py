@@ -29,7 +29,7 @@ is the truth), ``grid_index`` −1.
 
 Splits: the train/test sets are fixed, the same for every seed, as for given poses:
 ``train_val/`` → train, ``test/`` → test; for ``plain``, a share of the frames drawn
-once with ``SeedSequence(pool_entropy, spawn_key=(4,))`` is the test set. The store
+once with ``SeedSequence(pool_entropy, spawn_key=(5,))`` is the test set. The store
 holds the train frames first, then the test frames (attribute ``poses``: partition,
 image names, per-file digests). The dictionary comes from synthetic pools
 (``dictionary_from``), beside the store, when ``synthcal split`` draws the splits.
@@ -47,6 +47,7 @@ import hashlib
 import json
 import re
 import shutil
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -171,9 +172,13 @@ def _pairs(folder: Path, layout: str) -> tuple[dict[str, list[tuple[Path, Path]]
 def _read_matrix(path: Path) -> tuple[np.ndarray | None, str]:
     """A 3 × 3 text matrix, or None and why not."""
     try:
-        matrix = np.loadtxt(path, dtype=np.float64, ndmin=2)
+        with warnings.catch_warnings():  # an empty file: numpy warns, then the shape check names it
+            warnings.simplefilter("ignore", UserWarning)
+            matrix = np.loadtxt(path, dtype=np.float64, ndmin=2)
     except (OSError, ValueError) as exc:
-        return None, f"unreadable matrix: {' '.join(str(exc).split())[:60]}"
+        return None, f"unreadable matrix: {' '.join(str(exc).split()).split(';')[0][:80]}"
+    if matrix.size == 0:
+        return None, "empty matrix file"
     if matrix.shape != (3, 3):
         return None, f"a {' × '.join(map(str, matrix.shape))} matrix, expected 3 × 3"
     if not np.isfinite(matrix).all():
@@ -244,7 +249,7 @@ def _draw_test(frames: list[Frame], fraction: float, entropy: int | tuple[int, .
     if not 0 < fraction < 1:
         raise FrameError(f"--test-fraction: a share strictly between 0 and 1 (value {fraction!r})")
     count = min(max(round(fraction * len(frames)), 1), len(frames) - 1)
-    rng = np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(4,)))
+    rng = np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(5,)))
     test = set(rng.choice(len(frames), size=count, replace=False).tolist())
     return {"train": [f for k, f in enumerate(frames) if k not in test],
             "test": [f for k, f in enumerate(frames) if k in test]}

@@ -175,6 +175,9 @@ def damage(folder: Path, case: str) -> tuple[str, str]:
     if case == "non-finite":
         (train / "2.homographyMatrix").write_text("1 0 0\n0 nan 0\n0 0 1\n")
         return str(train / "2.homographyMatrix"), "non-finite matrix"
+    if case == "not 3 × 3":
+        (test / "10.homographyMatrix").write_text("1 0 0\n0 1 0\n")
+        return str(test / "10.homographyMatrix"), "a 2 × 3 matrix, expected 3 × 3"
     if case == "unreadable image":
         (train / "10.jpg").write_bytes(b"not a jpeg")
         return str(train / "10.jpg"), "unreadable image"
@@ -187,7 +190,7 @@ def damage(folder: Path, case: str) -> tuple[str, str]:
     raise AssertionError(case)
 
 
-@pytest.mark.parametrize("case", ["singular", "non-finite", "unreadable image", "frame without matrix",
+@pytest.mark.parametrize("case", ["singular", "non-finite", "not 3 × 3", "unreadable image", "frame without matrix",
                                   "matrix without frame"])
 def test_bad_input_is_one_line_and_writes_nothing(wc14_folder, tmp_path, capsys, case):
     folder = Path(shutil.copytree(wc14_folder[0], tmp_path / "wc14"))

@@ -280,6 +280,23 @@ def _cmd_split(args: argparse.Namespace) -> None:
     _print_draw(draw_splits(args.store, seeds, sizes))
 
 
+def _cmd_import(args: argparse.Namespace) -> None:
+    from synthcal.config import load_config
+    from synthcal.generate.frames import frames_spec, import_frames, read_frames, with_frames
+
+    config = load_config(args.config)
+    name = args.name or args.folder.resolve().name
+    spec = frames_spec(config, name, args.scene, args.layout, args.profile,
+                       tuple(args.dictionary_from) if args.dictionary_from else None)
+    frames = read_frames(args.folder, args.layout, args.test_fraction, spec.pool_entropy)
+    spec = with_frames(spec, frames, config, args.profile, args.dictionary)
+    path, written = import_frames(frames, spec, args.out)
+    parts = ", ".join(f"{part} {stop - start}" for part, (start, stop) in frames.partition.items())
+    print(f"{path}  {len(frames.frames)} frames ({parts}) at {spec.image_size[0]} × {spec.image_size[1]}"
+          f"{'' if written else ', already imported'}; dictionary from {', '.join(spec.mixed_sources)}: "
+          f"generate them into {args.out}, then run `synthcal split {path}`")
+
+
 def _cmd_worldcup_stats(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.generate.pipeline import load_scene
@@ -782,6 +799,38 @@ def _add_split(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.set_defaults(func=_cmd_split)
 
 
+def _share(text: str) -> float:
+    """``--test-fraction``: a number strictly between 0 and 1."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"must be a share strictly between 0 and 1 (value {text!r})")
+    return value
+
+
+def _add_import(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("import", help="a folder of real frames with annotated homographies as a store: the frame "
+                                       "as image, the annotation in the scene's frame, the scene's semantic view")
+    p.add_argument("folder", type=Path, help="the folder of frames")
+    p.add_argument("--layout", required=True, choices=["wc14", "plain"],
+                   help="wc14: train_val/ and test/ with N.jpg + N.homographyMatrix (pitch yards → pixels); "
+                        "plain: NAME.jpg|png + NAME.homography.txt (bird's-eye px → pixels of the frame)")
+    p.add_argument("--scene", required=True, help="the scene the annotations refer to (wc14: soccer)")
+    p.add_argument("--out", type=Path, required=True, help="folder receiving NAME.zarr")
+    p.add_argument("--name", default=None, help="dataset name (default: the folder's name)")
+    p.add_argument("--profile", default=None, help="profile of datasets.yaml giving the image and shard sizes")
+    p.add_argument("--dictionary-from", nargs="+", default=None, metavar="DATASET",
+                   help="grid datasets whose pools give the dictionary (default: those of the scene)")
+    p.add_argument("--dictionary", type=_positive_int, default=None, metavar="N",
+                   help="templates per seed (default: the profile's dictionary size, at most the pools')")
+    p.add_argument("--test-fraction", type=_share, default=0.2,
+                   help="plain: share of the frames drawn once as the fixed test set (default 0.2)")
+    _add_config(p)
+    p.set_defaults(func=_cmd_import)
+
+
 def _add_worldcup_stats(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("worldcup-stats", help="the real World Cup 2014 cameras against a camera grid")
     p.add_argument("--grid", default="soccer", help="grid of datasets.yaml (default soccer)")
@@ -932,6 +981,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_datasets(sub)
     _add_generate(sub)
     _add_split(sub)
+    _add_import(sub)
     _add_worldcup_stats(sub)
     _add_info(sub)
     _add_verify(sub)

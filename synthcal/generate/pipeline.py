@@ -67,7 +67,7 @@ from synthcal.utils.dispatch import check_main_guarded, check_scheduler, dispatc
 from synthcal.utils.progress import show_progress
 
 __all__ = ["load_scene", "anchored_spec", "plan_homographies", "plan_cameras", "render_samples", "generate_dataset",
-           "store_path"]
+           "store_path", "store_attributes", "foreground_attribute", "seal_store"]
 
 
 def load_scene(spec: DatasetSpec) -> Scene:
@@ -313,7 +313,12 @@ def _foreground(tasks: list[ShardTask], spec: DatasetSpec) -> dict | None:
         return None
     if len(counts) != spec.pool_size:
         return None
-    fractions = counts / float(spec.image_size[0] * spec.image_size[1])
+    return foreground_attribute(counts, spec.image_size)
+
+
+def foreground_attribute(counts: np.ndarray, image_size: tuple[int, int]) -> dict:
+    """The ``foreground`` attribute of a store from each sample's (N,) non-background pixel count."""
+    fractions = counts / float(image_size[0] * image_size[1])
     return {"empty_samples": int(np.count_nonzero(counts == 0)), "min_fraction": float(fractions.min()),
             "mean_fraction": float(fractions.mean())}
 
@@ -328,9 +333,17 @@ def store_path(out_dir: Path, dataset: str) -> Path:
     return Path(out_dir) / f"{dataset}.zarr"
 
 
-def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
+def store_attributes(spec: DatasetSpec, scene: Scene, poses: dict | None = None) -> dict:
+    """A new store's group attributes (provenance, SPEC §5), ``complete`` False.
+
+    Args:
+        poses: the ``poses`` attribute of given cameras (default: the spec's pose
+            set's, :func:`~synthcal.generate.worldcup.pose_attributes`; None for a grid).
+    """
     from synthcal.generate.worldcup import pose_attributes
 
+    if poses is None and spec.poses is not None:
+        poses = pose_attributes(spec.poses)
     return {
         "format_version": FORMAT_VERSION,
         "dataset": spec.name,
@@ -343,7 +356,7 @@ def _attributes(spec: DatasetSpec, scene: Scene) -> dict:
             **_source_attributes(spec),
         },
         "grid": None if spec.grid is None else spec.grid.model_dump(mode="json"),
-        "poses": None if spec.poses is None else pose_attributes(spec.poses),
+        "poses": poses,
         "N": spec.pool_size,
         "seed": spec.seed,
         "pool_seed": spec.pool_seed_attributes(),
@@ -373,7 +386,7 @@ def _prepare_partial(spec: DatasetSpec, scene: Scene, partial: Path, progress: P
     scratch = partial.with_name(partial.name + ".creating")
     shutil.rmtree(scratch, ignore_errors=True)
     try:
-        create_store(scratch, _attributes(spec, scene), spec.image_size, spec.shard_size,
+        create_store(scratch, store_attributes(spec, scene), spec.image_size, spec.shard_size,
                      homographies, camera, scene.image, scene.semantic, images_splits=spec.images == "splits")
     except BaseException:  # disk full, Ctrl-C: leave no skeleton behind
         shutil.rmtree(scratch, ignore_errors=True)
@@ -503,10 +516,18 @@ def _generate_locked(spec: DatasetSpec, scene: Scene, final: Path, workers: _Wor
     # Killed writers (this run's or an earlier one's) may have left temporaries; under
     # the lock none is at work, so whatever matches is debris.
     remove_temporaries(partial)
+    seal_store(partial, final, _foreground(tasks, spec))
+    shutil.rmtree(progress_dir, ignore_errors=True)
+    return final
+
+
+def seal_store(partial: Path, final: Path, foreground: dict | None) -> None:
+    """Mark a fully written ``partial`` store complete, record its manifest and rename it ``final``.
+
+    The caller holds the store's lock and has swept temporaries of killed writers.
+    """
     group = zarr.open_group(zarr.storage.LocalStore(partial), mode="r+", zarr_format=3)
-    group.attrs.update({"foreground": _foreground(tasks, spec), "complete": True})
+    group.attrs.update({"foreground": foreground, "complete": True})
     remove_temporaries(partial)  # zarr writes zarr.json through a temporary too
     write_manifest(partial)  # last: it lists every file, the root zarr.json just written included
     os.replace(partial, final)
-    shutil.rmtree(progress_dir, ignore_errors=True)
-    return final

@@ -61,6 +61,7 @@ __all__ = [
     "bird_eye_to_pitch",
     "frame_scaling",
     "convert_homographies",
+    "camera_scaled",
     "fit_cameras",
     "camera_fields",
     "plan_poses",
@@ -184,10 +185,35 @@ def convert_homographies(homographies_yards: np.ndarray, image_size: tuple[int, 
         columns, as grid samples have; SPEC §2 allows positive factors).
     """
     H = frame_scaling(image_size) @ np.asarray(homographies_yards, np.float64) @ bird_eye_to_yards()
-    H = orient_homography(H, image_size)
-    focal = decompose_homography(H, image_size)["focal_px"]
-    columns = np.linalg.solve(intrinsics(focal, image_size), H)[..., :, :2]
-    scale = np.linalg.norm(columns, axis=-2).mean(axis=-1)
+    return camera_scaled(H, image_size)
+
+
+def camera_scaled(homographies: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
+    """Bird's-eye → image homographies of any sign and scale, with the depth sign and the camera's scale.
+
+    The sign is fixed with :func:`~synthcal.generate.camera.orient_homography`
+    (SPEC §2), then each is divided by the positive factor that gives it the camera
+    model's own scale ``K [r1 r2 t]`` (unit rotation columns, as grid samples have),
+    ``K`` from :func:`~synthcal.generate.camera.decompose_homography`'s focal. Where
+    no real focal exists (a homography no roll-free pinhole camera makes, e.g. an
+    affine one), the Frobenius norm is the factor instead.
+
+    Args:
+        homographies: (N, 3, 3) bird's-eye → image at ``image_size``, invertible.
+        image_size: ``(width, height)`` of the images.
+
+    Returns:
+        (N, 3, 3) float64.
+    """
+    H = orient_homography(homographies, image_size)
+    with np.errstate(all="ignore"):
+        focal = decompose_homography(H, image_size)["focal_px"]
+        usable = np.isfinite(focal) & (focal > 0)
+        # a stand-in focal keeps K invertible; its rows take the fallback below
+        columns = np.linalg.solve(intrinsics(np.where(usable, focal, 1.0), image_size), H)[..., :, :2]
+        scale = np.linalg.norm(columns, axis=-2).mean(axis=-1)
+    fallback = ~usable | ~np.isfinite(scale) | ~(scale > 0)
+    scale = np.where(fallback, np.linalg.norm(H, axis=(-2, -1)), scale)
     return H / scale[..., None, None]
 
 

@@ -18,7 +18,9 @@ column             needed  meaning
 ``seed``           yes     the split seed (the five cycles: 0–4)
 ``iou`` …          yes     the mean over the run's test images of a metric of
                            :func:`synthcal.eval.scoring.evaluate`, a fraction in
-                           [0, 1] (failures counted as 0); pick it with ``value``
+                           [0, 1] (failures counted as 0); pick it with ``value``;
+                           a pixel error (``reproj_px``, ``corner_error``: the run's
+                           median in pixels) is shown as it is, the lowest mean bold
 ``completeness``   no      share of the run's test images with a valid estimate
                            (a fraction; shown "–" where missing)
 ``profile``        no      the profile the run was trained under (caption)
@@ -99,7 +101,7 @@ from importlib import resources
 import numpy as np
 import pandas as pd
 
-from synthcal.config import DESCRIPTIONS, READINGS
+from synthcal.config import DESCRIPTIONS, PIXEL_METRICS, READINGS
 
 __all__ = ["KEYS", "MISSING", "Layout", "LAYOUTS", "paper_results", "aggregate", "table_frame", "format_table",
            "failed_runs", "PAIR_KEYS", "paired_frame", "format_paired"]
@@ -162,7 +164,10 @@ def _validate(results: pd.DataFrame, value: str, keys: tuple[str, ...] = KEYS) -
         frame[key] = frame[key].astype(object).where(frame[key].notna(), MISSING) if key in frame else MISSING
         frame[key] = frame[key].astype(str)
     values = pd.to_numeric(frame[value], errors="raise")
-    if ((values < 0) | (values > 1)).any():
+    if value in PIXEL_METRICS:  # pixels, shown as they are; inf where most of a run's images failed
+        if (values < 0).any():
+            raise ValueError(f"column {value!r} is a distance in pixels, never negative")
+    elif ((values < 0) | (values > 1)).any():
         raise ValueError(f"column {value!r} must be a fraction in [0, 1] (tables convert to percent)")
     frame[value] = values
     frame["completeness"] = (pd.to_numeric(frame["completeness"], errors="raise") if "completeness" in frame
@@ -187,10 +192,11 @@ def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:
     """
     frame = _validate(results, value)
     grouped = frame.groupby(list(KEYS), sort=False)
-    out = grouped[value].agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count")
+    with np.errstate(invalid="ignore"):  # a pixel error's inf (a failed run median) has no std: NaN, not a warning
+        out = grouped[value].agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count")
     out["completeness"] = grouped["completeness"].mean()
     out = out.reset_index()
-    out[["mean", "std", "completeness"]] *= 100.0
+    out[["mean", "std", "completeness"] if value not in PIXEL_METRICS else ["completeness"]] *= 100.0
     return out
 
 
@@ -325,8 +331,11 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
         shown = [k if previous is None or key[: i + 1] != previous[: i + 1] else "" for i, k in enumerate(key)]
         previous = key
         means = np.array([round(row[(v, "mean")], 2) for v in column_values], dtype=float)
-        # Nothing to single out in a row of one value, or of zeros (every run failed).
-        best = np.nanmax(means) if np.isfinite(means).sum() >= 2 and np.nanmax(means) > 0 else np.nan
+        # Nothing to single out in a row of one value, or of zeros (every run failed); pixel errors: lowest.
+        if table.attrs.get("value") in PIXEL_METRICS:
+            best = np.nanmin(means) if (~np.isnan(means)).sum() >= 2 and np.isfinite(np.nanmin(means)) else np.nan
+        else:
+            best = np.nanmax(means) if np.isfinite(means).sum() >= 2 and np.nanmax(means) > 0 else np.nan
         cells, flags = list(shown), [False] * len(shown)
         for value, mean in zip(column_values, means, strict=True):
             cells.append(_cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")]))
@@ -349,7 +358,8 @@ def _caption(table: pd.DataFrame) -> str:
     columns = table.columns.names[0]
     value = table.attrs.get("value", "iou")
     reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
-    text = (f"{value} (%){reading}; by {columns}, mean ± std over {n} seeds (std with ddof = 1); best per row in "
+    unit = "px" if value in PIXEL_METRICS else "%"
+    text = (f"{value} ({unit}){reading}; by {columns}, mean ± std over {n} seeds (std with ddof = 1); best per row in "
             f"bold; complete %: share of test images with a valid estimate, mean over seeds.")
     # A key missing in every run (estimators that do not train have no loss) says nothing: left out.
     constants = {k: v for k, v in table.attrs.get("constants", {}).items() if v != MISSING}
@@ -499,8 +509,8 @@ def paired_frame(
     pairs = sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
     if pairs.empty:
         raise ValueError(f"no paired runs: no dataset, seed and settings with both {key} {a!r} and {key} {b!r}")
-    pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * 100.0
-    pairs["a_wins"] = pairs[f"{value}_a"] > pairs[f"{value}_b"]
+    pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * (1.0 if value in PIXEL_METRICS else 100.0)
+    pairs["a_wins"] = pairs[f"{value}_a"] > pairs[f"{value}_b"]  # as displayed: A > B (for pixels, A worse)
     grouped = pairs.groupby(others, sort=False)
     out = grouped["difference"].agg(mean="mean", std=lambda x: x.std(ddof=1), n_pairs="count")
     out["a_wins"] = grouped["a_wins"].sum().astype(int)
@@ -566,7 +576,7 @@ def format_paired(
 
 def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str, str]) -> str:
     reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
-    text = (f"{a} − {b} in points of {value} (%){reading}: per split seed, the difference between two runs that "
+    text = (f"{a} − {b} in points of {value} ({'px' if value in PIXEL_METRICS else '%'}){reading}: per split seed, the difference between two runs that "
             f"differ only in {key} (same dataset, seed and settings); mean ± std over the seeds (std with ddof = 1); "
             f"{a} > {b}: seeds where {a} scores higher. Paper: the published {a} − {b} for the same cell "
             f"(a UNet's segmentation, the paper's own training; SPEC §7)"

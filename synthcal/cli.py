@@ -81,6 +81,26 @@ def _cmd_osm(args: argparse.Namespace) -> None:
     print(f"# datasets:\n#   {scene.name}: {{scene: {scene.name}, grid: intersection, pool_size: 200000}}")
 
 
+def _cmd_osm_junctions(args: argparse.Namespace) -> None:
+    from synthcal.scenes.osm.junctions import datasets_snippet, find_junctions, rank, write_csv
+    from synthcal.utils.atomic import atomic_write
+
+    if args.datasets < 0:
+        raise _UserError(f"--datasets: K must be ≥ 0 (value {args.datasets})")
+    junctions = find_junctions(args.file, args.bbox, args.legs)
+    if args.like:
+        junctions = rank(junctions, args.like)
+    with atomic_write(args.csv) as tmp:
+        write_csv(junctions, tmp)
+    print(f"{args.csv}: {len(junctions)} junctions{' most like ' + args.like + ' first' if args.like else ''}")
+    if args.datasets:
+        yaml_path = args.yaml or args.csv.with_suffix(".datasets.yaml")
+        text = datasets_snippet(junctions[: args.datasets], args.file, yaml_path.parent)
+        with atomic_write(yaml_path) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+        print(f"{yaml_path}: scenes, datasets and mixed dictionaries of the first {min(args.datasets, len(junctions))}")
+
+
 def _cmd_datasets(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
 
@@ -763,6 +783,37 @@ def _add_osm(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=_cmd_osm)
 
 
+def _add_osm_junctions(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from synthcal.config.vocabulary import BUILTIN_SCENE_NAMES
+
+    p = sub.add_parser("osm-junctions", help="list the road junctions of an OpenStreetMap extract as CSV (node, "
+                                              "position, legs, bearings, road classes, cycleways)")
+    p.add_argument("file", type=Path, help=".osm, .osm.pbf or .osm.bz2 extract")
+    p.add_argument("--bbox", type=_parse_bbox, default=None, metavar="W,S,E,N",
+                   help="only junctions inside this box (WGS84 degrees: west, south, east, north)")
+    p.add_argument("--legs", type=int, default=None, help="only junctions with exactly this many road legs")
+    p.add_argument("--like", choices=[n for n in BUILTIN_SCENE_NAMES if n.startswith("intersection-")],
+                   help="rank by likeness to a built-in intersection: leg count, then leg bearings")
+    p.add_argument("--csv", type=Path, required=True, help="the catalogue to write")
+    p.add_argument("--datasets", type=int, default=0, metavar="K",
+                   help="also write a datasets.yaml snippet: the first K junctions as OSM scenes, datasets and "
+                        "mixed dictionaries")
+    p.add_argument("--yaml", type=Path, default=None, help="where the snippet goes (default: CSV.datasets.yaml)")
+    p.set_defaults(func=_cmd_osm_junctions)
+
+
+def _parse_bbox(text: str) -> tuple[float, float, float, float]:
+    """``"W,S,E,N"`` degrees → a box; argparse reports a ValueError as a bad value of the option."""
+    try:
+        west, south, east, north = (float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected W,S,E,N, four numbers separated by commas (value {text!r})") \
+            from None
+    if not (west < east and south < north):
+        raise argparse.ArgumentTypeError(f"expected W,S,E,N with west < east and south < north (value {text!r})")
+    return west, south, east, north
+
+
 def _add_datasets(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("datasets", help="list every dataset name generate and bench accept, one line each")
     p.add_argument("--profile", default=None, help="show the pool sizes under this profile of datasets.yaml")
@@ -978,6 +1029,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scenes(sub)
     _add_scene(sub)
     _add_osm(sub)
+    _add_osm_junctions(sub)
     _add_datasets(sub)
     _add_generate(sub)
     _add_split(sub)

@@ -48,6 +48,8 @@ __all__ = [
     "METRICS",
     "DESCRIPTIONS",
     "DEFAULT_READING",
+    "PIXEL_METRICS",
+    "FAILURE_SHARES",
     "ConfigError",
     "MAX_MESSAGE",
     "brief",
@@ -149,9 +151,15 @@ def check_dataset_name(name: str, where: str = "") -> None:
 
 # --- metric names (SPEC §8; what each computes: synthcal.eval.metrics) -----------------------------
 
-# The paper's IoU, three readings of it (synthcal.eval.metrics' docstring), then the sports-field metrics.
+# The paper's IoU, three readings of it (synthcal.eval.metrics' docstring), then the sports-field metrics,
+# then the homography literature's pixel errors (synthcal.eval.reprojection).
 READINGS = ("iou", "iou_bg", "iou_weighted")
-METRICS = (*READINGS, "iou_part", "iou_whole")
+METRICS = (*READINGS, "iou_part", "iou_whole", "reproj_px", "acc@5", "acc@10", "acc@20", "corner_error")
+# Metrics in pixels, lower is better, summarised per run by their median (an image may score inf);
+# every other metric is a fraction in [0, 1], higher is better, summarised by its mean, shown in percent.
+PIXEL_METRICS = ("reproj_px", "corner_error")
+# A pixel metric → the summary key of its share of failed (inf) images.
+FAILURE_SHARES = {name: f"{name}_failed" for name in PIXEL_METRICS}
 # The reading tables, plots and bench summaries show unless told otherwise. Not iou_weighted,
 # although it lands nearest the paper's figures: an estimate that sees only background scores
 # its floor (~53 on intersection-1), which compresses every difference into the top half of
@@ -164,4 +172,11 @@ DESCRIPTIONS = {
                     "(sklearn jaccard_score average='weighted', as the public re-implementation of Sha et al.)",
     "iou_part": "IoU of the ground seen, on the scene's field (the pitch for soccer)",
     "iou_whole": "IoU of the image against its round trip truth -> ground -> estimate",
+    "reproj_px": "image-pixel distance between the estimated and true projections of the scene's 10-px ground "
+                 "grid the true view sees, mean per image, median over images (inf: a point behind the camera)",
+    "acc@5": "share of test images whose reproj_px is at most 5 px",
+    "acc@10": "share of test images whose reproj_px is at most 10 px",
+    "acc@20": "share of test images whose reproj_px is at most 20 px",
+    "corner_error": "bird's-eye distance between the four image corners sent to the ground by the estimate and "
+                    "the truth, mean per image, median over images whose corners all see the ground",
 }

@@ -21,7 +21,8 @@ Results layout
 
     RESULTS/runs/<run-id>/metrics.csv   one row per test image: test_index, pool_index,
                                         iou, iou_bg, iou_weighted, iou_part, iou_whole,
-                                        failed, failure, skipped (the truth sees no
+                                        reproj_px, acc@5, acc@10, acc@20, corner_error
+                                        (inf: a failure), failed, failure, skipped (the truth sees no
                                         field: metrics NaN), h00 … h22 (the estimate
                                         as returned, NaN if none)
     RESULTS/runs/<run-id>/run.json      the resolved run (everything that determines
@@ -92,7 +93,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from synthcal.config import METRICS
+from synthcal.config import FAILURE_SHARES, METRICS
 from synthcal.data import read_scene
 from synthcal.eval.isolation import (
     DEFAULT_TIMEOUT,
@@ -389,9 +390,10 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
     Returns:
         DataFrame with ``dataset``, ``model``, ``training``, ``loss``,
         ``matching_score``, ``segmentation``, ``profile``, ``seed``, the
-        metrics ``iou``, ``iou_bg``, ``iou_weighted``, ``iou_part``, ``iou_whole``
-        (means over scored test images, failures as 0; NaN for a metric the run's
-        record predates), ``completeness``, ``n_images``, ``n_skipped``, ``status``, ``error`` (``""`` for a run
+        metrics of :data:`synthcal.config.METRICS` (:func:`synthcal.eval.scoring.summarize`:
+        means over scored test images, failures as 0, or medians of the pixel errors;
+        NaN for a metric the run's record predates), the pixel errors' failure shares
+        ``reproj_px_failed`` and ``corner_error_failed``, ``completeness``, ``n_images``, ``n_skipped``, ``status``, ``error`` (``""`` for a run
         that is ok), ``run_id``, ``device``, ``budget`` (:func:`training_budget`;
         None for estimators that do not train) and ``dictionary`` (``split``, or ``pool``:
         then ``dataset`` reads ``NAME (pool)``). A damaged ``run.json`` is skipped with a
@@ -414,7 +416,7 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
             summary = record["summary"]
             row.update({k: summary[k] for k in ("iou", "completeness", "n_images")})
             # Runs recorded before a metric existed show it as missing (NaN), not as 0.
-            row.update({k: summary.get(k, np.nan) for k in (*METRICS, "n_skipped")})
+            row.update({k: summary.get(k, np.nan) for k in (*METRICS, *FAILURE_SHARES.values(), "n_skipped")})
         except KeyError as error:
             warnings.warn(f"{path}: damaged run record skipped (no {error})", DamagedRecordWarning, stacklevel=2)
             continue
@@ -422,7 +424,7 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
                    device=run.get("device"), budget=training_budget(record), dictionary=run.get("dictionary", "split"))
         rows.append(row)
     columns = ["dataset", "model", "training", "loss", "matching_score", "segmentation", "profile", "seed",
-               "estimator", *METRICS, "completeness", "n_images", "n_skipped", "status", "error", "run_id",
+               "estimator", *METRICS, *FAILURE_SHARES.values(), "completeness", "n_images", "n_skipped", "status", "error", "run_id",
                "device", "budget", "dictionary"]
     return pd.DataFrame(rows, columns=columns)
 

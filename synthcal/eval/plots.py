@@ -1,7 +1,8 @@
 """Figures of a results folder: IoU per dataset and estimator, and overlays.
 
 Both show one metric (``value``: a column of :data:`synthcal.config.METRICS`,
-e.g. ``iou_weighted``), named in the axis label and titles.
+e.g. ``iou_weighted``), named in the axis label and titles: a fraction in percent, a
+pixel error (:data:`synthcal.config.PIXEL_METRICS`) in pixels.
 
 * :func:`plot_iou` — one group of bars per dataset, one bar per configuration
   (model and the keys that vary), height the mean over seeds of the per-run mean
@@ -27,6 +28,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from synthcal.config import PIXEL_METRICS
 from synthcal.data import read_scene
 from synthcal.eval.metrics import check_homography
 from synthcal.generate.render import render_semantic
@@ -63,7 +65,8 @@ def plot_iou(runs: pd.DataFrame, path: str | Path, value: str = "iou") -> Path:
         ``path``.
     """
     frame = runs.assign(config=configuration_labels(runs))
-    stats = frame.groupby(["dataset", "config"], sort=False)[value].agg(["mean", "std", "count"]) * [100, 100, 1]
+    scale = 1 if value in PIXEL_METRICS else 100
+    stats = frame.groupby(["dataset", "config"], sort=False)[value].agg(["mean", "std", "count"]) * [scale, scale, 1]
     datasets = list(dict.fromkeys(frame["dataset"]))
     configs = list(dict.fromkeys(frame["config"]))
     width = 0.8 / len(configs)
@@ -76,8 +79,12 @@ def plot_iou(runs: pd.DataFrame, path: str | Path, value: str = "iou") -> Path:
         ax.bar(np.arange(len(datasets)) + (k - (len(configs) - 1) / 2) * width, means, width, yerr=errors,
                capsize=3, label=config)
     ax.set_xticks(np.arange(len(datasets)), datasets)
-    ax.set_ylabel(f"{value} (%)")
-    ax.set_ylim(0, 100)
+    if value in PIXEL_METRICS:  # unbounded above (an inf bar is not drawn)
+        ax.set_ylabel(f"{value} (px)")
+        ax.set_ylim(bottom=0)
+    else:
+        ax.set_ylabel(f"{value} (%)")
+        ax.set_ylim(0, 100)
     n = sorted(frame.groupby(["dataset", "config"])["seed"].nunique().unique())
     ax.set_title(f"{value}: mean ± std over {'/'.join(map(str, n))} seeds")
     ax.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
@@ -96,9 +103,11 @@ def _estimated_map(scene_semantic: np.ndarray, estimate: np.ndarray, image_size:
 
 
 def _percent(frame: pd.DataFrame, row: int, value: str) -> str:
-    """``87.5 %``: one test image's metric from a run's ``metrics.csv``; "–" where the run has none."""
+    """``87.5 %`` (``3.2 px``): one test image's metric from a run's ``metrics.csv``; "–" where it has none."""
     score = frame.loc[row, value] if value in frame.columns else np.nan
-    return "–" if pd.isna(score) else f"{100 * score:.1f} %"
+    if pd.isna(score):
+        return "–"
+    return f"{score:.1f} px" if value in PIXEL_METRICS else f"{100 * score:.1f} %"
 
 
 def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: str | Path, count: int = 3,

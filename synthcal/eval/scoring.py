@@ -1,17 +1,26 @@
 """All metrics of a batch of test images (SPEC §8), and their summary over a run.
 
 :func:`evaluate` scores every image by the readings of the paper's IoU
-(:mod:`synthcal.eval.metrics`) and the exact ``iou_part`` / ``iou_whole``
-(:mod:`synthcal.eval.polygon`), checking each estimate once.
+(:mod:`synthcal.eval.metrics`), the exact ``iou_part`` / ``iou_whole``
+(:mod:`synthcal.eval.polygon`) and the pixel errors ``reproj_px``, ``acc@k``,
+``corner_error`` (:mod:`synthcal.eval.reprojection`), checking each estimate once.
 
 Failures, the truth and skipped images
 ---------------------------------------
 A failed estimate (:func:`synthcal.eval.metrics.check_homography`: none, wrong shape,
-non-finite, singular) scores 0 on every metric and is flagged. Every true ``H`` is
+non-finite, singular) scores 0 on every IoU and ``acc@k``, ``inf`` on the pixel errors
+(:data:`synthcal.config.PIXEL_METRICS`), and is flagged. Every true ``H`` is
 checked first (:func:`synthcal.eval.metrics.check_truth`). A test image whose true
 view sees none of the field has no ``iou_part`` to speak of; it is *skipped* (all
 its metrics NaN, column ``skipped``) and counted (``n_skipped`` in
 :func:`summarize`), not scored.
+
+Summaries
+---------
+:func:`summarize` averages the fractions (the IoUs, ``acc@k``: failures as 0) over the
+scored images; the pixel errors, where one failed image is ``inf``, are summarised by
+their *median* over the images that have the reading, beside the share of those that
+failed (``reproj_px_failed``, ``corner_error_failed``).
 """
 
 from __future__ import annotations
@@ -22,7 +31,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from synthcal.config import METRICS, READINGS
+from synthcal.config import FAILURE_SHARES, METRICS, PIXEL_METRICS, READINGS
 from synthcal.eval.metrics import (
     CLASSES,
     check_homography,
@@ -32,6 +41,7 @@ from synthcal.eval.metrics import (
     semantic_readings,
 )
 from synthcal.eval.polygon import field_polygon, field_seen, iou_part_checked, iou_whole_checked, polygon_area
+from synthcal.eval.reprojection import ground_grid, reprojection_readings
 
 __all__ = ["evaluate", "completeness", "summarize"]
 
@@ -90,10 +100,12 @@ def evaluate(
         source: where the truths come from (a store's path), named by errors.
 
     Returns:
-        DataFrame with one row per test image and columns :data:`METRICS` (float
-        in [0, 1]), ``failed`` (bool), ``failure`` (reason, ``""`` if none) and
-        ``skipped`` (bool: the true view sees none of the field; its metrics are
-        NaN). Failed estimates score 0 on every metric.
+        DataFrame with one row per test image and columns :data:`METRICS` (float:
+        fractions in [0, 1], the pixel errors in pixels, ``inf`` for a failure, NaN
+        where the truth leaves them undefined; :mod:`synthcal.eval.reprojection`),
+        ``failed`` (bool), ``failure`` (reason, ``""`` if none) and ``skipped`` (bool:
+        the true view sees none of the field; its metrics are NaN). Failed estimates
+        score 0 on every fraction and ``inf`` on every pixel error.
 
     Raises:
         TruthError: a true homography breaks SPEC §2's rule (names the sample);
@@ -105,6 +117,7 @@ def evaluate(
     names = list(range(len(H_true_batch))) if indices is None else [int(i) for i in np.asarray(indices)]
     truths = [check_truth(H, image_size, name, source) for H, name in zip(H_true_batch, names, strict=True)]
     polygon = field_polygon(scene_semantic.shape, field)
+    points = ground_grid(scene_semantic.shape)
     rows = []
     # Each estimate is checked (SVD, orientation) once, then scored by every metric.
     for estimate, H_true in zip(_estimate_items(H_est_batch, len(truths)), truths, strict=True):
@@ -116,7 +129,8 @@ def evaluate(
         else:
             H, reason = check_homography(estimate, image_size)
         if H is None:
-            rows.append((*[0.0] * len(METRICS), True, reason, False))
+            pixels = reprojection_readings(points, None, H_true, image_size)
+            rows.append((*[0.0] * (len(METRICS) - len(pixels)), *pixels.values(), True, reason, False))
             continue
         predicted, target = estimate_and_true_views(scene_semantic, H, H_true, image_size)
         scores = semantic_readings(predicted, target)
@@ -126,6 +140,7 @@ def evaluate(
             *(scores[name] for name in READINGS),
             iou_part_checked(polygon, H, H_true, image_size),
             iou_whole_checked(H, H_true, image_size, canvas_scale),
+            *reprojection_readings(points, H, H_true, image_size).values(),
             False,
             "",
             False,
@@ -146,19 +161,27 @@ def completeness(per_image: pd.DataFrame) -> float:
 
 
 def summarize(per_image: pd.DataFrame) -> dict[str, float]:
-    """Means over the scored test images (failures count as 0), completeness and counts.
+    """Means (fractions; failures count as 0) or medians (pixel errors) over the scored test images,
+    the pixel errors' failure shares, completeness and counts.
 
     Args:
         per_image: the frame returned by :func:`evaluate`.
 
     Returns:
         dict with every metric of :data:`METRICS` present in the frame (NaN when no
-        image is scored), ``completeness``, ``n_images`` (scored images) and
-        ``n_skipped`` (images whose true view sees no field).
+        image has it), for each of :data:`PIXEL_METRICS` present ``<name>_failed`` (the
+        share of the images with the reading that score ``inf``), ``completeness``,
+        ``n_images`` (scored images) and ``n_skipped`` (images whose true view sees no field).
     """
     scored = _scored(per_image)
-    summary = {name: float(scored[name].mean()) if len(scored) else float("nan")
-               for name in METRICS if name in per_image}
+    summary = {}
+    for name in (name for name in METRICS if name in per_image):
+        values = scored[name].dropna()  # NaN: the truth leaves the reading undefined
+        if name in PIXEL_METRICS:
+            summary[name] = float(values.median()) if len(values) else float("nan")
+            summary[FAILURE_SHARES[name]] = float(np.isinf(values).mean()) if len(values) else float("nan")
+        else:
+            summary[name] = float(values.mean()) if len(values) else float("nan")
     summary["completeness"] = completeness(per_image)
     summary["n_images"] = float(len(scored))
     summary["n_skipped"] = float(len(per_image) - len(scored))

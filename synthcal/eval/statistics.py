@@ -52,7 +52,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from synthcal.config import DESCRIPTIONS, READINGS
+from synthcal.config import DESCRIPTIONS, PIXEL_METRICS, READINGS
 from synthcal.eval.metrics import semantic_readings
 from synthcal.eval.tables import (
     FORMATS,
@@ -163,6 +163,11 @@ def _paper_difference(row: Mapping[str, str], key: str, a: str, b: str, aliases:
     return float(figures[0] - figures[1])
 
 
+def _points(value: str) -> float:
+    """What one unit of ``value`` is in the tables: percent points for fractions, pixels as they are."""
+    return 1.0 if value in PIXEL_METRICS else 100.0
+
+
 def _image_differences(pairs: pd.DataFrame, per_image: PerImage | None) -> list[np.ndarray] | None:
     """Each pair's per-image differences A − B in points, on the images both runs scored (None: a run lacks them)."""
     if per_image is None or "run_id_a" not in pairs:
@@ -224,12 +229,13 @@ def paired_frame(
     pairs = sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
     if pairs.empty:
         raise ValueError(f"no paired runs: no dataset, seed and settings with both {key} {a!r} and {key} {b!r}")
-    pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * 100.0
-    pairs["a_wins"] = pairs[f"{value}_a"] > pairs[f"{value}_b"]
+    pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * _points(value)
+    pairs["a_wins"] = pairs[f"{value}_a"] > pairs[f"{value}_b"]  # as displayed: A > B (for pixels, A worse)
     rows = []
     for cell, group in pairs.groupby(others, sort=False):
         t_low, t_high, p = t_interval(group["difference"])
-        images = _image_differences(group, per_image)
+        # Pixel metrics are summarised by per-run medians (an image may score inf): no bootstrap of means.
+        images = None if value in PIXEL_METRICS else _image_differences(group, per_image)
         boot = bootstrap_interval(images, resamples) if images else (np.nan, np.nan)
         rows.append({**dict(zip(others, cell, strict=True)), "mean": group["difference"].mean(),
                      "std": group["difference"].std(ddof=1), "n_pairs": len(group),
@@ -312,7 +318,8 @@ def format_paired(
 
 def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str, str], resamples: int) -> str:
     reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
-    text = (f"{a} − {b} in points of {value} (%){reading}: per split seed, the difference between two runs that "
+    unit = "px" if value in PIXEL_METRICS else "%"
+    text = (f"{a} − {b} in points of {value} ({unit}){reading}: per split seed, the difference between two runs that "
             f"differ only in {key} (same dataset, seed and settings); mean ± std over the seeds (std with ddof = 1). "
             f"95 % CI (t): paired t interval over the seeds, p: its two-sided test of no difference (both undefined "
             f"for one seed). 95 % CI (bootstrap): test images resampled with replacement within each seed, "

@@ -18,7 +18,9 @@ column             needed  meaning
 ``seed``           yes     the split seed (the five cycles: 0–4)
 ``iou`` …          yes     the mean over the run's test images of a metric of
                            :func:`synthcal.eval.scoring.evaluate`, a fraction in
-                           [0, 1] (failures counted as 0); pick it with ``value``
+                           [0, 1] (failures counted as 0); pick it with ``value``;
+                           a pixel error (``reproj_px``, ``corner_error``: the run's
+                           median in pixels) is shown as it is, the lowest mean bold
 ``completeness``   no      share of the run's test images with a valid estimate
                            (a fraction; shown "–" where missing)
 ``profile``        no      the profile the run was trained under (caption)
@@ -103,7 +105,7 @@ from importlib import resources
 import numpy as np
 import pandas as pd
 
-from synthcal.config import DESCRIPTIONS, READINGS
+from synthcal.config import DESCRIPTIONS, PIXEL_METRICS, READINGS
 
 __all__ = ["KEYS", "MISSING", "PAIR_KEYS", "FORMATS", "Layout", "LAYOUTS", "paper_results", "validate_results",
            "aggregate", "order_values", "table_frame", "counted", "wrap_caption", "latex_escape", "legend", "notes",
@@ -167,7 +169,10 @@ def validate_results(results: pd.DataFrame, value: str, keys: tuple[str, ...] = 
         frame[key] = frame[key].astype(object).where(frame[key].notna(), MISSING) if key in frame else MISSING
         frame[key] = frame[key].astype(str)
     values = pd.to_numeric(frame[value], errors="raise")
-    if ((values < 0) | (values > 1)).any():
+    if value in PIXEL_METRICS:  # pixels, shown as they are; inf where most of a run's images failed
+        if (values < 0).any():
+            raise ValueError(f"column {value!r} is a distance in pixels, never negative")
+    elif ((values < 0) | (values > 1)).any():
         raise ValueError(f"column {value!r} must be a fraction in [0, 1] (tables convert to percent)")
     frame[value] = values
     frame["completeness"] = (pd.to_numeric(frame["completeness"], errors="raise") if "completeness" in frame
@@ -192,10 +197,11 @@ def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:
     """
     frame = validate_results(results, value)
     grouped = frame.groupby(list(KEYS), sort=False)
-    out = grouped[value].agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count")
+    with np.errstate(invalid="ignore"):  # a pixel error's inf (a failed run median) has no std: NaN, not a warning
+        out = grouped[value].agg(mean="mean", std=lambda x: x.std(ddof=1), n_seeds="count")
     out["completeness"] = grouped["completeness"].mean()
     out = out.reset_index()
-    out[["mean", "std", "completeness"]] *= 100.0
+    out[["mean", "std", "completeness"] if value not in PIXEL_METRICS else ["completeness"]] *= 100.0
     return out
 
 
@@ -353,8 +359,11 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
         shown = [k if previous is None or key[: i + 1] != previous[: i + 1] else "" for i, k in enumerate(key)]
         previous = key
         means = np.array([round(row[(v, "mean")], 2) for v in column_values], dtype=float)
-        # Nothing to single out in a row of one value, or of zeros (every run failed).
-        best = np.nanmax(means) if np.isfinite(means).sum() >= 2 and np.nanmax(means) > 0 else np.nan
+        # Nothing to single out in a row of one value, or of zeros (every run failed); pixel errors: lowest.
+        if table.attrs.get("value") in PIXEL_METRICS:
+            best = np.nanmin(means) if (~np.isnan(means)).sum() >= 2 and np.isfinite(np.nanmin(means)) else np.nan
+        else:
+            best = np.nanmax(means) if np.isfinite(means).sum() >= 2 and np.nanmax(means) > 0 else np.nan
         cells, flags = list(shown), [False] * len(shown)
         for value, mean in zip(column_values, means, strict=True):
             cell = _cell(row[(value, "mean")], row[(value, "std")], row[(value, "n_seeds")])
@@ -376,7 +385,8 @@ def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[li
 def legend(value: str, compare_paper: bool = False) -> str:
     """What every table of a reading says alike: the reading, the cells, bold, the paper's figures."""
     reading = f" — {DESCRIPTIONS[value]}" if value in DESCRIPTIONS else ""
-    text = (f"{value} (%){reading}. Cells: mean ± std over seeds (std with ddof = 1; the mean alone for one seed); "
+    unit = "px" if value in PIXEL_METRICS else "%"
+    text = (f"{value} ({unit}){reading}. Cells: mean ± std over seeds (std with ddof = 1; the mean alone for one seed); "
             f"best per row in bold; {INCOMPLETE}: fewer than all test images got a valid estimate (failures count "
             f"as 0).")
     if compare_paper:

@@ -3,6 +3,7 @@
 import cv2
 import numpy as np
 
+from synthcal.config import METRICS, PIXEL_METRICS
 from synthcal.generate.camera import homography
 
 SIZE = (48, 24)
@@ -26,3 +27,8 @@ def blobs(seed: int = 0, shape=(400, 300)) -> np.ndarray:
 
 def perspective(pan, tilt, focal, position=(150.0, 200.0, 40.0), size=SIZE):
     return homography([pan], [tilt], [focal], [position], size)[0]
+
+
+# What every metric gives an estimate equal to the truth, and a failed estimate.
+PERFECT = [0.0 if name in PIXEL_METRICS else 1.0 for name in METRICS]
+FAILED = [np.inf if name in PIXEL_METRICS else 0.0 for name in METRICS]

@@ -88,6 +88,9 @@ def test_failing_estimators_score_zero_and_the_sweep_goes_on(data, tmp_path, cap
     assert main(["table", str(tmp_path), "--metric", "iou_weighted"]) == 0
     out = capsys.readouterr().out
     assert f"failed: {nan_run}: all 8 estimates invalid" in out and "iou_weighted (%)" in out
+    assert main(["table", str(tmp_path), "--metric", "reproj_px"]) == 0
+    out = capsys.readouterr().out
+    assert "reproj_px (px)" in out and "| inf |" in out  # the NaN estimator's median image failed
     with pytest.raises(SystemExit) as refused:
         main(["table", str(tmp_path), "--metric", "nope"])
     assert refused.value.code == 2

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
-from metric_cases import SIZE, blobs, perspective, top_down
+from metric_cases import PERFECT, SIZE, blobs, perspective, top_down
 
 from synthcal.config import METRICS
 from synthcal.eval.metrics import (
@@ -87,7 +87,7 @@ def test_truth_seeing_no_field_is_skipped_and_counted():
     H_true = np.stack([top_down(96, 50), top_down(0, 0)])  # sees u ∈ [95.5, 143.5]; then the field
     frame = evaluate(scene, np.stack([top_down(0, 0), top_down(0, 0)]), H_true, SIZE, field=field)
     assert frame["skipped"].tolist() == [True, False] and frame.loc[0, list(METRICS)].isna().all()
-    assert (frame.loc[1, list(METRICS)] == 1.0).all()
+    assert frame.loc[1, list(METRICS)].tolist() == PERFECT
     summary = summarize(frame)
     assert summary["n_skipped"] == 1 and summary["n_images"] == 1 and summary["iou"] == 1.0
     # Outside evaluate, an empty true region is never agreement: the estimate scores 0.

@@ -9,7 +9,8 @@ from metric_cases import SIZE, blobs, perspective
 from synthcal.eval.plots import plot_iou
 from synthcal.eval.reprojection import corner_error, ground_grid, reproj_px
 from synthcal.eval.scoring import evaluate, summarize
-from synthcal.eval.tables import aggregate, format_table, paired_frame
+from synthcal.eval.statistics import paired_frame
+from synthcal.eval.tables import aggregate, format_table
 
 SCENE = blobs(7)
 STEEP = perspective(0, -30, 30)  # its four image corners see the ground

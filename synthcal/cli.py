@@ -96,6 +96,33 @@ def _cmd_datasets(args: argparse.Namespace) -> None:
         print(f"{label:16s} {target}'s train/test sets; templates from {', '.join(sources)}")
 
 
+def _cmd_config_show(args: argparse.Namespace) -> None:
+    from synthcal.config import load_config, packaged_config_path, show_layered
+
+    config = load_config(args.config)
+    packaged = config.layers[0]
+
+    def label(path: Path) -> str:
+        return "packaged" if path == packaged else str(path)
+
+    print(f"# {' + '.join(label(p) for p in config.layers)} (packaged: {packaged_config_path()}); "
+          "each value's comment names the file it came from")
+    print(show_layered(config.raw, config.origins, label), end="")
+
+
+def _cmd_config_init(args: argparse.Namespace) -> None:
+    from synthcal.config import STARTER
+
+    try:
+        with args.path.open("x", encoding="utf-8") as file:  # "x": never overwrite, even if it appears meanwhile
+            file.write(STARTER)
+    except FileExistsError:
+        raise _UserError(f"{args.path}: exists; `synthcal config init` never overwrites a file "
+                         "(give another path, or remove it)") from None
+    print(f"wrote {args.path}: a starter layered over the packaged configuration; "
+          f"`synthcal config show --config {args.path}` prints the result")
+
+
 def _describe_dataset(config: LoadedConfig, name: str, profile: str | None) -> str:
     """One line on a dataset: its scene, its cameras and pool size, where its dictionary comes from."""
     entry = config.config.datasets[name]
@@ -591,7 +618,8 @@ def _progress(args: argparse.Namespace) -> bool:
 
 def _add_config(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, default=None,
-                        help="datasets.yaml to use (default: ./datasets.yaml, else the packaged one)")
+                        help="datasets.yaml to use, layered over the packaged one (default: ./datasets.yaml if "
+                             "present, else the packaged one alone)")
 
 
 def _add_scenes(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -628,6 +656,19 @@ def _add_datasets(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     p.add_argument("--profile", default=None, help="show the pool sizes under this profile of datasets.yaml")
     _add_config(p)
     p.set_defaults(func=_cmd_datasets)
+
+
+def _add_config_cmd(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("config", help="the configuration: a user's datasets.yaml layered over the packaged one")
+    actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
+    show = actions.add_parser("show", help="print the merged configuration as YAML, each value with its origin "
+                                           "(packaged, or the user's file)")
+    _add_config(show)
+    show.set_defaults(func=_cmd_config_show)
+    init = actions.add_parser("init", help="write a minimal commented starter (never overwrites)")
+    init.add_argument("path", nargs="?", type=Path, default=Path("datasets.yaml"),
+                      help="the file to write (default ./datasets.yaml)")
+    init.set_defaults(func=_cmd_config_init)
 
 
 def _add_generate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -798,6 +839,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene(sub)
     _add_osm(sub)
     _add_datasets(sub)
+    _add_config_cmd(sub)
     _add_generate(sub)
     _add_split(sub)
     _add_worldcup_stats(sub)

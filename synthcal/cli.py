@@ -72,12 +72,16 @@ def _cmd_osm(args: argparse.Namespace) -> None:
             tmp.write_bytes(encoded.tobytes())
     height, width = scene.semantic.shape
     lat, lon = args.center
-    print(f"{args.out / 'image.png'}  {args.out / 'semantic.png'}  ({width} × {height} px, classes "
-          f"{', '.join(f'{i} {c}' for i, c in enumerate(scene.classes))}; © OpenStreetMap contributors, ODbL)")
-    print("# paste under scenes: in datasets.yaml (file relative to the YAML), then a dataset using it:")
-    print(f"{scene.name}:\n  osm: {{file: {args.file}, center: [{lat}, {lon}], size_m: [{args.size[0]:g}, "
-          f"{args.size[1]:g}], pixels_per_metre: {args.ppm:g}, seed: {args.seed}}}")
-    print(f"# datasets:\n#   {scene.name}: {{scene: {scene.name}, grid: intersection, pool_size: 200000}}")
+    # A path in a YAML file is read relative to that file's folder, wherever the command runs.
+    file = Path(os.path.relpath(args.file.absolute(), args.yaml.absolute().parent)).as_posix()
+    print(f"# wrote {args.out / 'image.png'} and {args.out / 'semantic.png'} ({width} × {height} px, classes "
+          f"{', '.join(f'{i} {c}' for i, c in enumerate(scene.classes))}); map data "
+          f"© OpenStreetMap contributors, ODbL")
+    print(f"# A datasets.yaml layered over the packaged one, for {args.yaml} (`file:` is relative to its folder): "
+          "save it there, or paste its entries under scenes: and datasets: of yours.")
+    print(f"scenes:\n  {scene.name}:\n    osm: {{file: {json.dumps(file)}, center: [{lat}, {lon}], "
+          f"size_m: [{args.size[0]:g}, {args.size[1]:g}], pixels_per_metre: {args.ppm:g}, seed: {args.seed}}}")
+    print(f"datasets:\n  {scene.name}: {{scene: {scene.name}, grid: intersection, pool_size: 200000}}")
 
 
 def _cmd_datasets(args: argparse.Namespace) -> None:
@@ -277,6 +281,8 @@ def _cmd_info(args: argparse.Namespace) -> None:
     scene_height, scene_width = array_at(group, "scene/semantic").shape
     print(f"scene size   {scene_width} × {scene_height} px, "
           f"heading {scene['heading_deg']:g}°")
+    if isinstance(source := scene.get("source"), dict):
+        _print_scene_source(source)
     for axis, values in (attrs["grid"] or {}).items():
         if isinstance(values, dict):
             print(f"grid {axis:<8s} {values['start']:g}..{values['stop']:g} step {values['step']:g}")
@@ -287,6 +293,16 @@ def _cmd_info(args: argparse.Namespace) -> None:
     print(f"config hash  {attrs['config_hash'][:16]}…")
     print(f"software     {', '.join(f'{k} {v}' for k, v in attrs['software'].items())}")
     _print_splits(group)
+
+
+def _print_scene_source(source: dict) -> None:
+    """``info``'s lines on where a scene came from (an OpenStreetMap extract): file, window, licence."""
+    if source.get("kind") == "openstreetmap":
+        lat, lon = source["center"]
+        width, height = source["size_m"]
+        print(f"scene source OpenStreetMap {source['file']} (sha256 {source['sha256'][:12]}…) around ({lat}, {lon}), "
+              f"{width:g} × {height:g} m")
+    print(f"licence      {source.get('licence', 'not recorded')}; {source.get('attribution', 'no attribution recorded')}")
 
 
 def _print_pool(attrs: dict) -> None:
@@ -638,7 +654,7 @@ def _add_scene(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 
 def _add_osm(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("osm", help="build a scene from an OpenStreetMap extract around a centre: writes image.png "
-                                    "and semantic.png (class ids) and prints the datasets.yaml entry")
+                                    "and semantic.png (class ids) and prints a datasets.yaml with its entry")
     p.add_argument("file", type=Path, help=".osm, .osm.pbf or .osm.bz2 extract")
     p.add_argument("--center", type=functools.partial(_parse_pair, what="LAT,LON"), required=True,
                    metavar="LAT,LON", help="scene centre in WGS84 degrees")
@@ -648,6 +664,9 @@ def _add_osm(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the RGB (cars, roofs, trees, textures)")
     p.add_argument("--name", default=None, help="scene name (default: the file name)")
     p.add_argument("-o", "--out", type=Path, required=True, help="folder receiving image.png and semantic.png")
+    p.add_argument("--yaml", type=Path, default=Path("datasets.yaml"), metavar="PATH",
+                   help="the datasets.yaml the printed entry is for: its osm file path is written relative to "
+                        "this file's folder (default ./datasets.yaml); the file is not read or written")
     p.set_defaults(func=_cmd_osm)
 
 
@@ -660,7 +679,7 @@ def _add_datasets(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 def _add_config_cmd(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("config", help="the configuration: a user's datasets.yaml layered over the packaged one")
-    actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
+    actions = p.add_subparsers(dest="action", required=True, metavar="ACTION", help="show or init")
     show = actions.add_parser("show", help="print the merged configuration as YAML, each value with its origin "
                                            "(packaged, or the user's file)")
     _add_config(show)

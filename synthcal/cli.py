@@ -73,12 +73,16 @@ def _cmd_osm(args: argparse.Namespace) -> None:
             tmp.write_bytes(encoded.tobytes())
     height, width = scene.semantic.shape
     lat, lon = args.center
-    print(f"{args.out / 'image.png'}  {args.out / 'semantic.png'}  ({width} × {height} px, classes "
-          f"{', '.join(f'{i} {c}' for i, c in enumerate(scene.classes))}; © OpenStreetMap contributors, ODbL)")
-    print("# paste under scenes: in datasets.yaml (file relative to the YAML), then a dataset using it:")
-    print(f"{scene.name}:\n  osm: {{file: {args.file}, center: [{lat}, {lon}], size_m: [{args.size[0]:g}, "
-          f"{args.size[1]:g}], pixels_per_metre: {args.ppm:g}, seed: {args.seed}}}")
-    print(f"# datasets:\n#   {scene.name}: {{scene: {scene.name}, grid: intersection, pool_size: 200000}}")
+    # A path in a YAML file is read relative to that file's folder, wherever the command runs.
+    file = Path(os.path.relpath(args.file.absolute(), args.yaml.absolute().parent)).as_posix()
+    print(f"# wrote {args.out / 'image.png'} and {args.out / 'semantic.png'} ({width} × {height} px, classes "
+          f"{', '.join(f'{i} {c}' for i, c in enumerate(scene.classes))}); map data "
+          f"© OpenStreetMap contributors, ODbL")
+    print(f"# A datasets.yaml layered over the packaged one, for {args.yaml} (`file:` is relative to its folder): "
+          "save it there, or paste its entries under scenes: and datasets: of yours.")
+    print(f"scenes:\n  {scene.name}:\n    osm: {{file: {json.dumps(file)}, center: [{lat}, {lon}], "
+          f"size_m: [{args.size[0]:g}, {args.size[1]:g}], pixels_per_metre: {args.ppm:g}, seed: {args.seed}}}")
+    print(f"datasets:\n  {scene.name}: {{scene: {scene.name}, grid: intersection, pool_size: 200000}}")
 
 
 def _cmd_osm_junctions(args: argparse.Namespace) -> None:
@@ -115,6 +119,33 @@ def _cmd_datasets(args: argparse.Namespace) -> None:
         short = target.removeprefix("intersection-")
         label = f"mixed-{short}" if short.isdigit() else f"mixed-{target}"
         print(f"{label:16s} {target}'s train/test sets; templates from {', '.join(sources)}")
+
+
+def _cmd_config_show(args: argparse.Namespace) -> None:
+    from synthcal.config import load_config, packaged_config_path, show_layered
+
+    config = load_config(args.config)
+    packaged = config.layers[0]
+
+    def label(path: Path) -> str:
+        return "packaged" if path == packaged else str(path)
+
+    print(f"# {' + '.join(label(p) for p in config.layers)} (packaged: {packaged_config_path()}); "
+          "each value's comment names the file it came from")
+    print(show_layered(config.raw, config.origins, label), end="")
+
+
+def _cmd_config_init(args: argparse.Namespace) -> None:
+    from synthcal.config import STARTER
+
+    try:
+        with args.path.open("x", encoding="utf-8") as file:  # "x": never overwrite, even if it appears meanwhile
+            file.write(STARTER)
+    except FileExistsError:
+        raise _UserError(f"{args.path}: exists; `synthcal config init` never overwrites a file "
+                         "(give another path, or remove it)") from None
+    print(f"wrote {args.path}: a starter layered over the packaged configuration; "
+          f"`synthcal config show --config {args.path}` prints the result")
 
 
 def _describe_dataset(config: LoadedConfig, name: str, profile: str | None) -> str:
@@ -362,6 +393,8 @@ def _cmd_info(args: argparse.Namespace) -> None:
     scene_height, scene_width = array_at(group, "scene/semantic").shape
     print(f"scene size   {scene_width} × {scene_height} px, "
           f"heading {scene['heading_deg']:g}°")
+    if isinstance(source := scene.get("source"), dict):
+        _print_scene_source(source)
     for axis, values in (attrs["grid"] or {}).items():
         if isinstance(values, dict):
             print(f"grid {axis:<8s} {values['start']:g}..{values['stop']:g} step {values['step']:g}")
@@ -372,6 +405,16 @@ def _cmd_info(args: argparse.Namespace) -> None:
     print(f"config hash  {attrs['config_hash'][:16]}…")
     print(f"software     {', '.join(f'{k} {v}' for k, v in attrs['software'].items())}")
     _print_splits(group)
+
+
+def _print_scene_source(source: dict) -> None:
+    """``info``'s lines on where a scene came from (an OpenStreetMap extract): file, window, licence."""
+    if source.get("kind") == "openstreetmap":
+        lat, lon = source["center"]
+        width, height = source["size_m"]
+        print(f"scene source OpenStreetMap {source['file']} (sha256 {source['sha256'][:12]}…) around ({lat}, {lon}), "
+              f"{width:g} × {height:g} m")
+    print(f"licence      {source.get('licence', 'not recorded')}; {source.get('attribution', 'no attribution recorded')}")
 
 
 def _print_pool(attrs: dict) -> None:
@@ -751,7 +794,8 @@ def default_workers() -> int:
 
 def _add_config(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, default=None,
-                        help="datasets.yaml to use (default: ./datasets.yaml, else the packaged one)")
+                        help="datasets.yaml to use, layered over the packaged one (default: ./datasets.yaml if "
+                             "present, else the packaged one alone)")
 
 
 def _add_scenes(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -770,7 +814,7 @@ def _add_scene(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 
 def _add_osm(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("osm", help="build a scene from an OpenStreetMap extract around a centre: writes image.png "
-                                    "and semantic.png (class ids) and prints the datasets.yaml entry")
+                                    "and semantic.png (class ids) and prints a datasets.yaml with its entry")
     p.add_argument("file", type=Path, help=".osm, .osm.pbf or .osm.bz2 extract")
     p.add_argument("--center", type=functools.partial(_parse_pair, what="LAT,LON"), required=True,
                    metavar="LAT,LON", help="scene centre in WGS84 degrees")
@@ -780,6 +824,9 @@ def _add_osm(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the RGB (cars, roofs, trees, textures)")
     p.add_argument("--name", default=None, help="scene name (default: the file name)")
     p.add_argument("-o", "--out", type=Path, required=True, help="folder receiving image.png and semantic.png")
+    p.add_argument("--yaml", type=Path, default=Path("datasets.yaml"), metavar="PATH",
+                   help="the datasets.yaml the printed entry is for: its osm file path is written relative to "
+                        "this file's folder (default ./datasets.yaml); the file is not read or written")
     p.set_defaults(func=_cmd_osm)
 
 
@@ -819,6 +866,19 @@ def _add_datasets(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     p.add_argument("--profile", default=None, help="show the pool sizes under this profile of datasets.yaml")
     _add_config(p)
     p.set_defaults(func=_cmd_datasets)
+
+
+def _add_config_cmd(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("config", help="the configuration: a user's datasets.yaml layered over the packaged one")
+    actions = p.add_subparsers(dest="action", required=True, metavar="ACTION", help="show or init")
+    show = actions.add_parser("show", help="print the merged configuration as YAML, each value with its origin "
+                                           "(packaged, or the user's file)")
+    _add_config(show)
+    show.set_defaults(func=_cmd_config_show)
+    init = actions.add_parser("init", help="write a minimal commented starter (never overwrites)")
+    init.add_argument("path", nargs="?", type=Path, default=Path("datasets.yaml"),
+                      help="the file to write (default ./datasets.yaml)")
+    init.set_defaults(func=_cmd_config_init)
 
 
 def _add_generate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -1031,6 +1091,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_osm(sub)
     _add_osm_junctions(sub)
     _add_datasets(sub)
+    _add_config_cmd(sub)
     _add_generate(sub)
     _add_split(sub)
     _add_import(sub)

@@ -16,15 +16,18 @@ modules, each re-exported here:
 * :mod:`.schema`: the pydantic models of the file's blocks;
 * :mod:`.spec`: :class:`DatasetSpec`, a resolved dataset, and its hash;
 * :mod:`.yaml_input`: :func:`read_yaml`, YAML read within limits (size, depth, aliases);
+* :mod:`.layers`: a user's file layered over the packaged one (merge rules, origins);
 * :mod:`.load`: :func:`load_config` and :class:`LoadedConfig`.
 """
 
 # Each module lists its public names once (its __all__); the package offers them all.
-from synthcal.config import load, schema, spec, vocabulary, yaml_input
+from synthcal.config import layers, load, schema, spec, vocabulary, yaml_input
+from synthcal.config.layers import *  # noqa: F403
 from synthcal.config.load import *  # noqa: F403
 from synthcal.config.schema import *  # noqa: F403
 from synthcal.config.spec import *  # noqa: F403
 from synthcal.config.vocabulary import *  # noqa: F403
 from synthcal.config.yaml_input import *  # noqa: F403
 
-__all__ = [*vocabulary.__all__, *schema.__all__, *spec.__all__, *yaml_input.__all__, *load.__all__]
+__all__ = [*vocabulary.__all__, *schema.__all__, *spec.__all__, *yaml_input.__all__, *layers.__all__,
+           *load.__all__]

@@ -1,17 +1,22 @@
 """Reading ``datasets.yaml``: :func:`load_config` and the :class:`LoadedConfig` it returns.
 
-Every error is a :class:`~synthcal.config.vocabulary.ConfigError` whose message
-names the file, the key path and the offending value, and is raised before anything
-is written.
+A user's file is layered over the packaged one (:mod:`.layers`). Every error is a
+:class:`~synthcal.config.vocabulary.ConfigError` whose message names the file that
+set the key, the key path and the offending value, and is raised before anything is
+written.
 """
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from pydantic import ValidationError
 
+from synthcal.config.layers import Origins, merge_layers, origin_of
 from synthcal.config.names import did_you_mean
 from synthcal.config.schema import Config, DatasetConfig, ProfileConfig, SplitSizes, TrainingProfile, UserSceneConfig
 from synthcal.config.spec import DatasetSpec
@@ -25,21 +30,30 @@ from synthcal.config.vocabulary import (
 )
 from synthcal.config.yaml_input import read_yaml
 
-__all__ = ["LoadedConfig", "default_config_path", "load_config"]
+__all__ = ["LoadedConfig", "default_config_path", "load_config", "packaged_config_path"]
+
+# Where a key came from: the file that set it (a ConfigError names it).
+Where = Callable[[Sequence[object]], Path]
 
 
-def default_config_path() -> Path:
-    """``./datasets.yaml`` when present, else the copy shipped with the package."""
-    local = Path("datasets.yaml")
-    if local.is_file():
-        return local
+def packaged_config_path() -> Path:
+    """The ``datasets.yaml`` shipped with the package: the base every user file is layered over."""
     return Path(str(resources.files("synthcal") / "datasets.yaml"))
 
 
-def _format_errors(path: Path, error: ValidationError) -> str:
+def default_config_path() -> Path:
+    """``./datasets.yaml`` when present, else the packaged one (:func:`packaged_config_path`)."""
+    local = Path("datasets.yaml")
+    if local.is_file():
+        return local
+    return packaged_config_path()
+
+
+def _format_errors(where: Where, error: ValidationError) -> str:
     """The first problem pydantic found, as one line (file, key path, what, value), and how many more."""
     errors = error.errors()
     item = errors[0]
+    path = where(item["loc"])
     key = ".".join(brief(str(part), 40) for part in item["loc"])
     value = brief(repr(item.get("input")), 60)
     if item["type"] == "missing":
@@ -55,9 +69,20 @@ def _format_errors(path: Path, error: ValidationError) -> str:
 class LoadedConfig:
     """A validated configuration file and the datasets it can resolve."""
 
-    def __init__(self, path: Path, config: Config) -> None:
+    def __init__(self, path: Path, config: Config, layers: Sequence[Path] = (), raw: dict[Any, Any] | None = None,
+                 origins: Origins | None = None) -> None:
+        """``path``: the user's file (the packaged one when there is none); ``layers``: the files read,
+        the packaged one first; ``raw``: their merged YAML; ``origins``: key path → the file that set it."""
         self.path = path
         self.config = config
+        self.layers = tuple(layers) or (path,)
+        self.raw = raw if raw is not None else {}
+        self.origins = origins if origins is not None else {}
+
+    def origin(self, *keys: object) -> Path:
+        """The file that set a key path (``origin("datasets", "soccer", "pool_size")``), else
+        that of its nearest enclosing mapping, else the user's file."""
+        return origin_of(self.origins, keys, self.path)
 
     @property
     def dataset_names(self) -> list[str]:
@@ -128,7 +153,8 @@ class LoadedConfig:
         size = spec.grid.size()
         if spec.pool_size > size:
             raise ConfigError(
-                f"{self.path}: datasets.{dataset}.pool_size: {spec.pool_size} samples asked for, "
+                f"{self.origin('datasets', dataset, 'pool_size')}: datasets.{dataset}.pool_size: "
+                f"{spec.pool_size} samples asked for, "
                 f"but grid {entry.grid!r} holds only {size} cameras (value {spec.pool_size})"
             )
         return spec
@@ -175,7 +201,7 @@ class LoadedConfig:
         poses' own partition (:data:`POSE_SET_SPLITS`); only the dictionary size
         comes from the profile, the entry (``entry_splits``) or the defaults.
         """
-        key = f"{self.path}: datasets.{dataset}"
+        key = f"{self.origin('datasets', dataset)}: datasets.{dataset}"
         if pool_size is not None:
             raise ConfigError(f"{key}: pool_size: the poses {poses!r} fix the pool size (value {pool_size})")
         fixed = dict(POSE_SET_SPLITS[poses])
@@ -189,95 +215,121 @@ class LoadedConfig:
         return sum(fixed.values()), splits.model_copy(update=fixed)
 
 
-def _check_references(path: Path, config: Config) -> None:
+def _check_references(where: Where, config: Config) -> None:
     """Every name a dataset or ``mixed_dictionaries`` refers to exists (in file order)."""
     for name, entry in config.datasets.items():
-        _check_dataset_references(path, config, name, entry)
-    _check_mixed_dictionaries(path, config)
+        _check_dataset_references(where, config, name, entry)
+    _check_mixed_dictionaries(where, config)
 
 
-def _check_dataset_references(path: Path, config: Config, name: str, entry: DatasetConfig) -> None:
+def _check_dataset_references(where: Where, config: Config, name: str, entry: DatasetConfig) -> None:
     """One dataset's name is plain and its ``dictionary_from``, ``scene`` and ``grid`` name things that exist."""
-    check_dataset_name(name, f"{path}: ")
+    check_dataset_name(name, f"{where(['datasets', name])}: ")
     for source in entry.dictionary_from or ():
         if source not in config.datasets or source == name:
             raise ConfigError(
-                f"{path}: datasets.{name}.dictionary_from: {source!r} must be another dataset; "
-                f"known: {', '.join(config.datasets)}"
+                f"{where(['datasets', name, 'dictionary_from'])}: datasets.{name}.dictionary_from: {source!r} must "
+                f"be another dataset; known: {', '.join(config.datasets)}"
             )
     if entry.dictionary_from and name in config.mixed_dictionaries:
         raise ConfigError(
-            f"{path}: mixed_dictionaries.{name}: the dataset already takes its dictionary from "
-            f"datasets.{name}.dictionary_from (value {list(config.mixed_dictionaries[name])})"
+            f"{where(['mixed_dictionaries', name])}: mixed_dictionaries.{name}: the dataset already takes its "
+            f"dictionary from datasets.{name}.dictionary_from (value {list(config.mixed_dictionaries[name])})"
         )
     if entry.poses == "worldcup2014" and entry.scene != "soccer":
         raise ConfigError(
-            f"{path}: datasets.{name}.scene: the poses 'worldcup2014' are World Cup broadcast cameras "
-            f"over the 'soccer' scene (value {entry.scene!r})"
+            f"{where(['datasets', name, 'scene'])}: datasets.{name}.scene: the poses 'worldcup2014' are World Cup "
+            f"broadcast cameras over the 'soccer' scene (value {entry.scene!r})"
         )
     if entry.grid is not None and entry.grid not in config.grids:
-        raise ConfigError(
-            f"{path}: datasets.{name}.grid: unknown grid {entry.grid!r}; known: {', '.join(config.grids)}"
-        )
+        raise ConfigError(f"{where(['datasets', name, 'grid'])}: datasets.{name}.grid: unknown grid "
+                          f"{entry.grid!r}; known: {', '.join(config.grids)}")
     if entry.scene not in config.scenes and entry.scene not in BUILTIN_SCENE_NAMES:
         known = ", ".join([*BUILTIN_SCENE_NAMES, *config.scenes])
-        raise ConfigError(f"{path}: datasets.{name}.scene: unknown scene {entry.scene!r}; known: {known}")
+        raise ConfigError(f"{where(['datasets', name, 'scene'])}: datasets.{name}.scene: unknown scene "
+                          f"{entry.scene!r}; known: {known}")
 
 
-def _check_mixed_dictionaries(path: Path, config: Config) -> None:
+def _check_mixed_dictionaries(where: Where, config: Config) -> None:
     """Each ``mixed_dictionaries`` target and its sources are distinct, other datasets."""
     for target, sources in config.mixed_dictionaries.items():
+        key = f"{where(['mixed_dictionaries', target])}: mixed_dictionaries.{target}"
         if target not in config.datasets:
-            raise ConfigError(
-                f"{path}: mixed_dictionaries.{target}: unknown dataset {target!r}; known: {', '.join(config.datasets)}"
-            )
+            raise ConfigError(f"{key}: unknown dataset {target!r}; known: {', '.join(config.datasets)}")
         if not sources or len(set(sources)) != len(sources):
-            raise ConfigError(f"{path}: mixed_dictionaries.{target}: list distinct source datasets (value {list(sources)})")
+            raise ConfigError(f"{key}: list distinct source datasets (value {list(sources)})")
         for source in sources:
             if source not in config.datasets or source == target:
-                raise ConfigError(
-                    f"{path}: mixed_dictionaries.{target}: {source!r} must be another dataset "
-                    f"(value {list(sources)}); known: {', '.join(config.datasets)}"
-                )
+                raise ConfigError(f"{key}: {source!r} must be another dataset (value {list(sources)}); "
+                                  f"known: {', '.join(config.datasets)}")
 
 
-def _resolve_scene_paths(path: Path, scene: UserSceneConfig) -> UserSceneConfig:
-    """A scene entry with its files made relative to the YAML file's folder."""
+def _resolve_scene_paths(where: Where, name: str, scene: UserSceneConfig) -> UserSceneConfig:
+    """A scene entry with each file made relative to the folder of the YAML file that named it."""
+    def beside(keys: list[str], file: Path) -> Path:
+        return where(["scenes", name, *keys]).parent / file
+
     if scene.osm is not None:
-        return scene.model_copy(update={"osm": scene.osm.model_copy(update={"file": path.parent / scene.osm.file})})
+        return scene.model_copy(update={"osm": scene.osm.model_copy(update={"file": beside(["osm", "file"],
+                                                                                         scene.osm.file)})})
     assert scene.image is not None and scene.semantic is not None  # _one_source
-    return scene.model_copy(update={"image": path.parent / scene.image, "semantic": path.parent / scene.semantic})
+    return scene.model_copy(update={"image": beside(["image"], scene.image),
+                                    "semantic": beside(["semantic"], scene.semantic)})
 
 
 def load_config(path: str | Path | None = None) -> LoadedConfig:
-    """Read and validate a ``datasets.yaml``.
+    """Read and validate a ``datasets.yaml``, layered over the packaged one.
+
+    The packaged grids, defaults, datasets and profiles apply unless the file sets
+    them; a key set in both is the file's; mappings merge, lists replace, ``null``
+    removes a packaged key (:mod:`synthcal.config.layers`). A file that is the
+    packaged one is read alone.
 
     Args:
-        path: the file (default: :func:`default_config_path`).
+        path: the user's file (default: ``./datasets.yaml`` when present, else the
+            packaged configuration alone).
 
     Raises:
         ConfigError: unreadable file, YAML syntax or over the limits of
             :func:`~synthcal.config.yaml_input.read_yaml`, unknown key, bad value or
             dangling reference; one line of at most :data:`MAX_MESSAGE` characters
-            naming the file, key path and value.
+            naming the file that set the key, the key path and the value.
     """
-    path = Path(path) if path is not None else default_config_path()
+    packaged = packaged_config_path()
+    user = Path(path) if path is not None else default_config_path()
+    files = [packaged] if _same_file(user, packaged) else [packaged, user]
     try:
-        return _load(path)
+        return _load(files)
     except ConfigError as exc:  # the guarantee, whatever a message quotes (long names, long lists)
         raise ConfigError(brief(str(exc))) from None
 
 
-def _load(path: Path) -> LoadedConfig:
-    """:func:`load_config`'s work; its messages may still be long."""
-    raw = read_yaml(path)
-    if not isinstance(raw, dict):
-        raise ConfigError(f"{path}: the top level must be a mapping, got {type(raw).__name__}")
+def _same_file(a: Path, b: Path) -> bool:
     try:
-        config = Config.model_validate(raw)
+        return os.path.samefile(a, b)
+    except OSError:  # a missing file is not the packaged one; reading it says what is wrong
+        return False
+
+
+def _load(files: list[Path]) -> LoadedConfig:
+    """:func:`load_config`'s work; its messages may still be long."""
+    layers = []
+    for path in files:
+        raw = read_yaml(path)
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{path}: the top level must be a mapping, got {type(raw).__name__}")
+        layers.append((path, raw))
+    merged, origins = merge_layers(layers)
+    user = files[-1]
+
+    def where(keys: Sequence[object]) -> Path:
+        return origin_of(origins, keys, user)
+
+    try:
+        config = Config.model_validate(merged)
     except ValidationError as exc:
-        raise ConfigError(_format_errors(path, exc)) from None
-    resolved_scenes = {name: _resolve_scene_paths(path, scene) for name, scene in config.scenes.items()}
+        raise ConfigError(_format_errors(where, exc)) from None
+    resolved_scenes = {name: _resolve_scene_paths(where, name, scene) for name, scene in config.scenes.items()}
     config = config.model_copy(update={"scenes": resolved_scenes})
-    _check_references(path, config)
-    return LoadedConfig(path, config)
+    _check_references(where, config)
+    return LoadedConfig(user, config, files, merged, origins)

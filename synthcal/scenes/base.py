@@ -16,17 +16,25 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
 
-__all__ = ["Scene", "SceneError", "NUM_CLASSES", "colorize", "draw_scene", "freeze"]
+__all__ = ["Scene", "SceneError", "NUM_CLASSES", "colorize", "draw_scene", "freeze", "file_not_found"]
 
 NUM_CLASSES = 4
 
 
 class SceneError(ValueError):
     """A scene cannot be built or loaded; the message names the file, key and value."""
+
+
+def file_not_found(path: Path) -> str:
+    """``file not found: PATH``, and where a relative path was looked for (a configuration's paths
+    are relative to its own folder, not to where the command runs)."""
+    shown = str(path) if path.is_absolute() else f"{path} (looked for {path.absolute()})"
+    return f"file not found: {shown}"
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .base import NUM_CLASSES, Scene, SceneError, freeze
+from .base import NUM_CLASSES, Scene, SceneError, file_not_found, freeze
 
 __all__ = ["load_user_scene", "DEFAULT_CLASSES", "DEFAULT_PALETTE"]
 
@@ -41,7 +41,7 @@ DEFAULT_PALETTE = ((0, 0, 0), (128, 64, 128), (107, 196, 64), (230, 40, 60))
 
 def _read(name: str, key: str, path: Path, flags: int) -> np.ndarray:
     if not path.is_file():
-        raise SceneError(f"scene {name!r}: {key}: file not found: {path}")
+        raise SceneError(f"scene {name!r}: {key}: {file_not_found(path)}")
     array = cv2.imread(str(path), flags)
     if array is None:
         raise SceneError(f"scene {name!r}: {key}: cannot read {path} as an image (PNG expected)")

@@ -36,7 +36,7 @@ import numpy as np
 
 from synthcal.utils.atomic import atomic_write
 
-from ..base import Scene, SceneError, freeze
+from ..base import Scene, SceneError, file_not_found, freeze
 from ..intersection import PALETTE
 from .classes import CLASS_NAMES, ClassRules, class_rules, relevant_keys
 from .read import Frame, centre_inside, read_osm
@@ -82,7 +82,7 @@ def cache_folder() -> Path:
 
 def _check_file(where: str, path: Path) -> None:
     if not path.is_file():
-        raise SceneError(f"{where}.file: file not found: {path}")
+        raise SceneError(f"{where}.file: {file_not_found(path)}")
     if not os.access(path, os.R_OK):
         raise SceneError(f"{where}.file: cannot read {path} (permission denied)")
 

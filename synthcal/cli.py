@@ -315,16 +315,16 @@ def _print_splits(group: zarr.Group) -> None:
 
 def _cmd_show(args: argparse.Namespace) -> None:
     from synthcal.store import attributes, open_store, read_samples
-    from synthcal.viz import sample_strip, tile
+    from synthcal.viz import sample_montage
 
     group = open_store(args.store)
     size = attributes(group)["N"]
     count = min(args.n, size)
     index = np.linspace(0, size - 1, count).round().astype(np.int64)
     samples = read_samples(group, index)
-    palette = attributes(group)["scene"]["palette"]
-    strips = [sample_strip(samples["image"][k], samples["semantic"][k], palette) for k in range(count)]
-    print(write_picture(args.output, tile(strips, columns=args.columns)))
+    scene = attributes(group)["scene"]
+    montage = sample_montage(samples["image"], samples["semantic"], scene["palette"], scene["classes"], args.columns)
+    print(write_picture(args.output, montage.picture))
 
 
 def _cmd_demo(args: argparse.Namespace) -> None:

@@ -470,16 +470,16 @@ def _print_splits(group: zarr.Group) -> None:
 
 def _cmd_show(args: argparse.Namespace) -> None:
     from synthcal.store import attributes, open_store, read_samples
-    from synthcal.viz import sample_strip, tile
+    from synthcal.viz import sample_montage
 
     group = open_store(args.store)
     size = attributes(group)["N"]
     count = min(args.n, size)
     index = np.linspace(0, size - 1, count).round().astype(np.int64)
     samples = read_samples(group, index)
-    palette = attributes(group)["scene"]["palette"]
-    strips = [sample_strip(samples["image"][k], samples["semantic"][k], palette) for k in range(count)]
-    print(write_picture(args.output, tile(strips, columns=args.columns)))
+    scene = attributes(group)["scene"]
+    montage = sample_montage(samples["image"], samples["semantic"], scene["palette"], scene["classes"], args.columns)
+    print(write_picture(args.output, montage.picture))
 
 
 def _cmd_demo(args: argparse.Namespace) -> None:
@@ -586,6 +586,7 @@ def _bench_limits(config: LoadedConfig, profile: str | None) -> dict[str, int] |
 def _cmd_bench(args: argparse.Namespace) -> int:
     """Exit 0 when every run is ok, 1 when any failed (each printed with its reason), 130 on Ctrl-C."""
     from synthcal.config import load_config
+    from synthcal.estimators.options import merge_options
     from synthcal.eval.harness import check_device, expand_runs, is_finished, plan_lines, run_sweep
     from synthcal.eval.tables import counted
 
@@ -602,7 +603,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     settings.update({key: value for key in ("stn_template", "class_reduction")
                      if (value := getattr(args, key)) is not None})
     dictionary = args.dictionary or {label: config.dictionary(label, args.profile) for label in args.datasets}
-    runs = expand_runs(args.data, args.datasets, args.estimator, parse_seeds(args.seeds), args.profile,
+    estimators = merge_options(args.estimator, config.config.estimators, args.option)
+    runs = expand_runs(args.data, args.datasets, estimators, parse_seeds(args.seeds), args.profile,
                        settings, args.training, args.loss, args.matching, segmentations,
                        device=args.device, limits=_bench_limits(config, args.profile), dictionary=dictionary)
     todo = runs if args.rerun else [run for run in runs if not is_finished(args.results, run)]
@@ -996,7 +998,12 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--datasets", nargs="+", required=True, metavar="NAME",
                    help="dataset labels: NAME (its store) or mixed-K / mixed-NAME (a mixed dictionary)")
     p.add_argument("--estimator", nargs="+", required=True, metavar="NAME_OR_PATH",
-                   help="bundled name (identity, template, ecc, baseline, proposed), entry point or module:Class")
+                   help="bundled name (identity, template, ecc, baseline, proposed), entry point or module:Class; "
+                        "'NAME?key=value&key=value' gives its constructor options")
+    p.add_argument("--option", action="append", default=[], metavar="NAME.KEY=VALUE",
+                   help="a constructor option of every --estimator entry NAME (repeatable; VALUE a YAML scalar: "
+                        "0.7, 3, true, fast); wins over the ?key=value of the entry and the configuration's "
+                        "estimators: section")
     p.add_argument("--seeds", default="0-4", help="split seeds, e.g. 0-4 or 0,2 (default 0-4)")
     p.add_argument("--profile", default=None, help="training sizes of datasets.yaml (smoke, demo, quick, paper)")
     p.add_argument("--results", type=Path, required=True, help="results folder (runs/, cache/)")

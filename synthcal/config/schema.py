@@ -486,6 +486,10 @@ class ProfileConfig(StrictModel):
     images: Images | None = None
 
 
+# An estimator option's value: a YAML scalar, each kind strict (YAML's true is not 1).
+EstimatorOption = StrictBool | StrictInt | StrictFloat | str | None
+
+
 class Config(StrictModel):
     version: StrictInt = CONFIG_VERSION
     defaults: Defaults = Defaults()
@@ -495,6 +499,8 @@ class Config(StrictModel):
     # target dataset → the datasets whose pools give its mixed dictionary (SPEC §6)
     mixed_dictionaries: dict[str, tuple[str, ...]] = {}
     profiles: dict[str, ProfileConfig] = {}
+    # estimator name or dotted path → its constructor options (synthcal.estimators.options)
+    estimators: dict[str, dict[str, EstimatorOption]] = {}
 
     @field_validator("version")
     @classmethod

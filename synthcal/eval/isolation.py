@@ -87,12 +87,13 @@ def write_text_atomic(path: Path, text: str) -> None:
 
 
 def _options(run: Run, cls: Any, results: Path, progress: bool) -> dict[str, Any]:
-    """Constructor keywords for the run: its axes and the services the class accepts."""
+    """Constructor keywords for the run: its axes, the services the class accepts and its options."""
     params = constructor_parameters(cls)
     offered = {a: getattr(run, a) for a in AXES if getattr(run, a) is not None}
     offered.update(settings=run.settings, device=run.device, cache_dir=str(results / "cache"), seed=run.seed,
                    progress=progress)
-    return {k: v for k, v in offered.items() if k in params and v is not None}
+    # The user's options last: expand_runs refused any that would replace one of these.
+    return {**{k: v for k, v in offered.items() if k in params and v is not None}, **(run.options or {})}
 
 
 # --- inside a run's own process ----------------------------------------------------------

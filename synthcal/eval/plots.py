@@ -11,7 +11,9 @@ pixel error (:data:`synthcal.config.PIXEL_METRICS`) in pixels.
   true semantic map, then with the map each configuration's estimate renders
   (the estimate stored in the run's ``metrics.csv``, oriented and drawn with the
   generator's renderer), the image's metric in the title ("–" where a run recorded
-  before the metric existed has none). Nothing is re-run.
+  before the metric existed has none), under a legend of the classes the overlays
+  tint (the scene's classes 1–3 in its palette colours; background is left
+  untinted). Nothing is re-run. :func:`overlay_figure` is the same figure, unsaved.
 
 Figures are drawn on :class:`matplotlib.figure.Figure` objects and written with
 their own ``savefig`` (Agg for PNG): no pyplot, so no global figure state and no
@@ -27,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
 from synthcal.config import PIXEL_METRICS
 from synthcal.data import read_scene
@@ -35,7 +38,7 @@ from synthcal.generate.render import render_semantic
 from synthcal.store import open_store, read_samples
 from synthcal.viz import overlay
 
-__all__ = ["configuration_labels", "plot_iou", "plot_overlays"]
+__all__ = ["configuration_labels", "plot_iou", "overlay_figure", "plot_overlays"]
 
 _KEYS = ("model", "training", "loss", "matching_score", "segmentation")
 _H_COLUMNS = [f"h{r}{c}" for r in range(3) for c in range(3)]
@@ -112,7 +115,25 @@ def _percent(frame: pd.DataFrame, row: int, value: str) -> str:
 
 def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: str | Path, count: int = 3,
                   max_configs: int = 4, value: str = "iou") -> Path:
-    """Test images of ``dataset`` with the true map and each configuration's estimate.
+    """Test images of ``dataset`` with the true map and each configuration's estimate, written as a PNG.
+
+    Args:
+        path: the PNG to write.
+        others: as :func:`overlay_figure`.
+
+    Returns:
+        ``path``.
+    """
+    fig = overlay_figure(results, runs, dataset, count, max_configs, value)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    return path
+
+
+def overlay_figure(results: str | Path, runs: pd.DataFrame, dataset: str, count: int = 3, max_configs: int = 4,
+                   value: str = "iou") -> Figure:
+    """The figure of :func:`plot_overlays`: test images of ``dataset``, the true map, each estimate's, a legend.
 
     Uses the lowest seed; the test images are spread evenly over the test split.
 
@@ -120,13 +141,12 @@ def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: s
         results: the results folder (for the runs' ``metrics.csv`` and ``run.json``).
         runs: :func:`synthcal.eval.harness.collect_results`.
         dataset: which dataset.
-        path: the PNG to write.
         count: test images (rows).
         max_configs: at most this many configurations (columns after the truth).
         value: the metric column of ``metrics.csv`` in each estimate's title.
 
     Returns:
-        ``path``.
+        The figure; its one figure legend names the tinted classes (module docstring).
     """
     chosen = runs[runs["dataset"] == dataset]
     chosen = chosen[chosen["seed"] == chosen["seed"].min()].assign(config=configuration_labels(chosen))
@@ -156,7 +176,9 @@ def plot_overlays(results: str | Path, runs: pd.DataFrame, dataset: str, path: s
     for ax in axes.flat:
         ax.axis("off")
     fig.suptitle(f"{dataset}: estimated vs true semantic map ({value} per image)", fontsize=9)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    return path
+    # Class 0 is never tinted (synthcal.viz.overlay): only the classes a reader sees coloured.
+    handles = [Patch(facecolor=(r / 255, g / 255, b / 255), edgecolor="grey", label=scene.classes[k])
+               for k, (r, g, b) in enumerate(scene.palette.tolist()) if k > 0]
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False,
+               bbox_to_anchor=(0.5, 0.0), title="tinted classes", title_fontsize=8)
+    return fig

@@ -63,6 +63,15 @@ and a run asked of a device that cannot run it (``cuda`` without CUDA) fails;
 under the old identity, which left the device out, that failure was reused by a
 rerun on the CPU. The time limit, the progress bars and the scheduler are not in
 it: they decide whether a run ends, never what an ended run scores.
+
+Options
+-------
+An estimator's constructor options (:mod:`synthcal.estimators.options`: the
+configuration's ``estimators:``, ``--estimator 'NAME?key=value'``, ``--option``)
+are :attr:`Run.options`: checked against the constructor by :func:`expand_runs`
+before any run, in the hash when set (two option sets, two runs), in the label
+(``sift(ratio=0.7)``, written ``sift-ratio0.7`` in the run id) and in
+``run.json``.
 """
 
 from __future__ import annotations
@@ -80,6 +89,13 @@ import numpy as np
 
 from synthcal.config import DICTIONARIES, Dictionary, Loss, Matching, Segmentation, Training
 from synthcal.estimators import resolve_estimator
+from synthcal.estimators.options import (
+    HARNESS_KEYWORDS,
+    EstimatorSpec,
+    check_options,
+    options_label,
+    parse_estimator_spec,
+)
 from synthcal.estimators.version import estimator_version
 from synthcal.store import open_store
 from synthcal.store.splits import (
@@ -99,7 +115,9 @@ AXES = ("training", "loss", "matching", "segmentation")
 # Run fields that do not change the result, left out of the run's hash.
 _NOT_HASHED = ("store",)
 # Run fields added after the first results were recorded: left out of the hash while None.
-_HASHED_WHEN_SET = ("device", "limits")
+_HASHED_WHEN_SET = ("device", "limits", "options")
+# An options label's punctuation in a run id (a folder name a shell takes unquoted): sift(ratio=0.7) → sift-ratio0.7.
+_ID_PUNCTUATION = str.maketrans({"/": "-", ":": "-", "(": "-", ")": None, "=": None, ",": None, " ": None})
 # Run fields added later with a default: left out of the hash at that default (the runs recorded
 # before them were exactly those runs).
 _HASHED_UNLESS = {"dictionary": "split"}
@@ -130,6 +148,8 @@ class Run:
         code: what the estimator is, its code version
             (:func:`synthcal.estimators.version.estimator_version`): an edited
             plug-in or bundled model is a new run.
+        options: the estimator's constructor options (module docstring,
+            "Options"); None: none.
     """
 
     dataset: str
@@ -149,6 +169,7 @@ class Run:
     limits: dict[str, int] | None = field(default=None, hash=False)
     dictionary: Dictionary = "split"
     code: str = ""
+    options: dict[str, Any] | None = field(default=None, hash=False)
 
     @property
     def id(self) -> str:
@@ -161,7 +182,7 @@ class Run:
         pool = ["pool"] if self.dictionary == "pool" else []
         keys = [self.dataset, self.model, *[getattr(self, a) for a in AXES if getattr(self, a)], *pool,
                 f"s{self.seed}", h]
-        return "_".join(k.replace("/", "-").replace(":", "-") for k in keys)
+        return "_".join(k.translate(_ID_PUNCTUATION) for k in keys)
 
 
 def dataset_store(data_dir: str | Path, label: str) -> tuple[Path, bool | None]:
@@ -233,7 +254,7 @@ def _store_limits(store: Path, group: Any, limits: dict[str, int] | None) -> dic
 def expand_runs(
     data_dir: str | Path,
     datasets: Sequence[str],
-    estimators: Sequence[str],
+    estimators: Sequence[str | EstimatorSpec],
     seeds: Sequence[int],
     profile: str | None = None,
     settings: dict[str, Any] | None = None,
@@ -256,13 +277,17 @@ def expand_runs(
             docstring, "Split sizes"); None: the splits as stored.
         dictionary: ``split`` or ``pool`` for every dataset, or per dataset label
             (labels not in the dict: ``split``); module docstring, "Dictionaries".
+        estimators: names or dotted paths, ``NAME?key=value&…`` or
+            :class:`EstimatorSpec` (with options; module docstring, "Options").
         others: the sweep's values (module docstring).
 
     Raises:
         SplitError: a missing store, a seed whose splits are not drawn, or the pool
             dictionary asked of a dataset with a mixed dictionary.
-        EstimatorError: an estimator that cannot be resolved.
+        EstimatorError: an estimator that cannot be resolved, or options its
+            constructor does not take (or a required parameter they leave out).
     """
+    specs = [parse_estimator_spec(e) if isinstance(e, str) else e for e in estimators]
     values: dict[str, Sequence[str]] = {"training": trainings, "loss": losses, "matching": matchings,
                                         "segmentation": segmentations}
     shared: dict[str, Any] = {"seeds": seeds, "profile": profile, "settings": settings,
@@ -280,8 +305,8 @@ def expand_runs(
         base = {"dataset": label, "store": str(store), "mixed": mixed, "store_hash": str(group.attrs["config_hash"]),
                 "limits": _store_limits(store, group, limits),
                 "dictionary": _dataset_dictionary(label, store, mixed, dictionary)}
-        for name in estimators:
-            for run in _estimator_runs(name, base, values, **shared):
+        for spec in specs:
+            for run in _estimator_runs(spec, base, values, **shared):
                 runs.setdefault(run.id, run)
     return list(runs.values())
 
@@ -305,21 +330,26 @@ def _dataset_dictionary(label: str, store: Path, mixed: bool | None,
     return value
 
 
-def _estimator_runs(name: str, base: dict[str, Any], values: dict[str, Sequence[str]], seeds: Sequence[int],
-                    profile: str | None, settings: dict[str, Any] | None, device: str) -> list[Run]:
+def _estimator_runs(spec: EstimatorSpec, base: dict[str, Any], values: dict[str, Sequence[str]],
+                    seeds: Sequence[int], profile: str | None, settings: dict[str, Any] | None,
+                    device: str) -> list[Run]:
     """One estimator's runs on one dataset: its applicable axes × seeds."""
+    name = spec.name
     cls = resolve_estimator(name)
     params = constructor_parameters(cls)
     code = estimator_version(cls)
     applies = {a: (hasattr(cls, "predict_semantic") if a == "segmentation" else a in params) for a in AXES}
+    # What the child process passes (synthcal.eval.isolation._options) satisfies required parameters.
+    check_options(name, cls, spec.options, frozenset(params & set(HARNESS_KEYWORDS)))
+    options = dict(sorted(spec.options.items())) or None
     grid: list[Sequence[str | None]] = [values[a] if applies[a] else [None] for a in AXES]
     runs = []
     taken = settings if "settings" in params else None
     for seed, combo in itertools.product(seeds, itertools.product(*grid)):
         axes: dict[str, Any] = dict(zip(AXES, combo, strict=True))
-        runs.append(Run(**base, estimator=name, model=estimator_label(name, cls, taken), seed=int(seed),
-                        profile=profile, settings=taken,
-                        device=device if "device" in params else None, code=code, **axes))
+        runs.append(Run(**base, estimator=name, model=options_label(estimator_label(name, cls, taken), options),
+                        seed=int(seed), profile=profile, settings=taken,
+                        device=device if "device" in params else None, code=code, options=options, **axes))
     return runs
 
 

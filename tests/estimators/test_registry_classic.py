@@ -147,7 +147,7 @@ def test_example_plugin_by_dotted_path_and_entry_point(world, monkeypatch):
         return found.select(**selection) if selection else found
 
     monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
-    plugin = load_estimator("nearest-thumbnail", size=(16, 9))
+    plugin = load_estimator("nearest-thumbnail", width=16, height=9)
     assert type(plugin) is type(estimator) and plugin.size == (16, 9)
     assert known_estimators()["nearest-thumbnail"] == path
 

@@ -458,12 +458,12 @@ def test_bench_searches_the_whole_pool_with_dictionary_pool(data, tmp_path, caps
 
 
 def dataclasses_replace_hash(run) -> str:
-    """The id hash of a run as computed before the dictionary field existed (no such key)."""
+    """The id hash of a run as computed before the dictionary and options fields existed (no such keys)."""
     import dataclasses
     import hashlib
 
     record = {k: v for k, v in dataclasses.asdict(run).items()
-              if k not in ("store", "dictionary") and not (k in ("device", "limits") and v is None)}
+              if k not in ("store", "dictionary") and not (k in ("device", "limits", "options") and v is None)}
     return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:10]
 
 

@@ -31,11 +31,13 @@ class NearestThumbnailEstimator:
     """Predicts the homography of the most similar train image.
 
     Args:
-        size: thumbnail ``(width, height)``; small sizes ignore detail (and noise).
+        width, height: the thumbnail's size; small sizes ignore detail (and noise). Plain
+            ``int`` keywords, so that ``bench`` can set and check them
+            (``--option nearest-thumbnail.width=24``).
     """
 
-    def __init__(self, size: tuple[int, int] = (32, 18)) -> None:
-        self.size = tuple(size)
+    def __init__(self, width: int = 32, height: int = 18) -> None:
+        self.size = (width, height)
         self.keys: np.ndarray | None = None
         self.homographies: np.ndarray | None = None
 

@@ -17,7 +17,9 @@ modules, each re-exported here:
 * :mod:`.spec`: :class:`DatasetSpec`, a resolved dataset, and its hash;
 * :mod:`.yaml_input`: :func:`read_yaml`, YAML read within limits (size, depth, aliases);
 * :mod:`.layers`: a user's file layered over the packaged one (merge rules, origins);
-* :mod:`.load`: :func:`load_config` and :class:`LoadedConfig`.
+* :mod:`.load`: :func:`load_config` and :class:`LoadedConfig`;
+* :mod:`.names` (not re-exported; :mod:`.load` uses it): did-you-mean suggestions for a
+  mistyped name.
 """
 
 # Each module lists its public names once (its __all__); the package offers them all.

@@ -6,7 +6,9 @@
 * :mod:`synthcal.estimators.paper` — the paper's ``proposed`` and ``baseline`` (``sha2020``) models and
   ``sha2020-ccbv`` (Sha et al.'s STN as the public CCBV code builds it);
 * :mod:`synthcal.estimators.diagnostic` — ``retrieved`` (the Siamese's template, no STN) and
-  ``oracle-template`` (the template of lowest true matching score).
+  ``oracle-template`` (the template of lowest true matching score);
+* :mod:`synthcal.estimators.options` — constructor options from the configuration and the command line;
+* :mod:`synthcal.estimators.version` — what an estimator's code is, as a hash in a run's identity.
 
 Convention: every homography maps a bird's-eye pixel to an image pixel,
 ``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).

@@ -1,8 +1,11 @@
 """Evaluation: the metrics (SPEC §8: :mod:`.metrics`, the checks and the paper's IoU;
-:mod:`.polygon`, the exact sports-field IoUs; :mod:`.evaluate`, a batch of images),
-the harness that runs estimators over datasets and seeds (:mod:`.runs`: which runs a
-sweep has; :mod:`.isolation`: one estimator in a process of its own; :mod:`.harness`:
-executing runs and sweeps, reading the results), the paper's result tables and plots.
+:mod:`.polygon`, the exact sports-field IoUs; :mod:`.reprojection`, pixel errors;
+:mod:`.scoring`, a batch of images and its summary), the harness that runs estimators
+over datasets and seeds (:mod:`.runs`: which runs a sweep has; :mod:`.isolation`: one
+estimator in a process of its own; :mod:`.harness`: executing runs and sweeps,
+reading the results), and its output (:mod:`.statistics`: paired differences and the
+all-background floor; :mod:`.tables`: the paper's result tables; :mod:`.report`:
+``synthcal table``'s text; :mod:`.plots`).
 
 Convention: every homography maps a bird's-eye pixel to an image pixel,
 ``x_img ~ H (u, v, 1)ᵀ``, third coordinate = depth (SPEC §2).

@@ -4,7 +4,8 @@
 * :mod:`synthcal.training.cache` — trained stages on disk, built once;
 * :mod:`synthcal.training.stages` — UNet, Siamese, STN and end-to-end training.
 
-Imports :mod:`synthcal.models`, :mod:`synthcal.config` and NumPy/PyTorch only.
+Imports of synthcal only :mod:`synthcal.models`, :mod:`synthcal.data`, :mod:`synthcal.store`,
+:mod:`synthcal.config` and :mod:`synthcal.utils` (tests/test_architecture.py).
 """
 
 from synthcal.training.cache import StageCache, digest

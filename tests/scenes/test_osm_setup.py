@@ -85,3 +85,24 @@ def test_a_missing_extract_shows_where_it_was_looked_for(tmp_path, capsys, monke
     err = capsys.readouterr().err
     assert "osm.file: file not found" in err and str(folder / "junction.osm.pbf") in err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_the_junction_family_figure_is_made_as_docs_osm_says(tmp_path):
+    text = (ROOT / "docs" / "osm.md").read_text()
+    start = text.index("\n### A junction family\n")
+    commands = re.compile(r"^```\n(.*?)^```$", re.S | re.M).search(text, start)
+    assert commands is not None and "junction_family.py" in commands.group(1)
+    (tmp_path / "examples").symlink_to(ROOT / "examples")  # the commands run from the repository's root
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+           "OMP_NUM_THREADS": "1"}
+    script = commands.group(1).replace("python ", f"{sys.executable} ")
+    done = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    import cv2
+
+    picture = cv2.imread(str(tmp_path / "docs" / "osm_junction_family.png"))
+    tiles = min(4, len((tmp_path / "work" / "j.csv").read_text().splitlines()) - 1)  # --datasets 4 of the rows
+    assert tiles == 4 and f"{tiles} scenes" in done.stdout
+    assert picture.shape[1] == tiles * (208 + 8)  # one 208-px tile and its margin per junction of the snippet
+    assert (ROOT / "docs" / "osm_junction_family.png").stat().st_size < 300_000

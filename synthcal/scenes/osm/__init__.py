@@ -2,7 +2,8 @@
 
 The work is split by stage: :mod:`.read` (pyosmium reader, the scene frame),
 :mod:`.classes` (tags → classes), :mod:`.paint` (semantic and material maps),
-:mod:`.dress` (RGB), :mod:`.build` (the cached entry point, store attributes).
+:mod:`.dress` (RGB), :mod:`.build` (the cached entry point, store attributes);
+:mod:`.junctions` is the catalogue of an extract's road junctions (``synthcal osm-junctions``).
 """
 
 from __future__ import annotations

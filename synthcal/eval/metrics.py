@@ -69,6 +69,7 @@ import numpy as np
 from synthcal.config import READINGS
 from synthcal.generate.camera import orient_homography
 from synthcal.generate.render import render_semantic
+from synthcal.store.errors import StoreError
 
 __all__ = [
     "SINGULAR_RCOND",
@@ -88,8 +89,12 @@ CLASSES = (1, 2, 3)
 NUM_CLASSES = 4
 
 
-class TruthError(ValueError):
-    """A true homography that breaks SPEC §2's rule: an error in the data, not a score."""
+class TruthError(StoreError):
+    """A true homography that breaks SPEC §2's rule: an error in the data, not a score.
+
+    A :class:`~synthcal.store.StoreError` (a ValueError), so that the command line reports
+    it as one line naming the store and sample, as it does any other damaged data.
+    """
 
 
 def check_homography(homography: Any, image_size: tuple[int, int]) -> tuple[np.ndarray | None, str]:

@@ -681,3 +681,17 @@ def test_two_workers_score_as_one_and_train_a_shared_stage_once(data, tmp_path, 
         else:  # a run's torch thread count (cores // workers) orders its sums: rounding differs, nothing else
             np.testing.assert_allclose(a[scores].to_numpy(), b[scores].to_numpy(), rtol=0, atol=1e-6)
             assert (a[["test_index", "pool_index", "failed"]] == b[["test_index", "pool_index", "failed"]]).all().all()
+
+
+def test_invalid_truth_in_a_store_is_one_line_naming_it(data, tmp_path, monkeypatch, capsys):
+    """A TruthError met while scoring (a damaged truth in the store) ends bench with one line, exit 2."""
+    import synthcal.eval.harness as harness
+    from synthcal.eval.metrics import TruthError
+
+    def damaged(*args, **kwargs):
+        raise TruthError("S.zarr: true homography of sample 3: not a finite (3, 3) matrix")
+
+    monkeypatch.setattr(harness, "evaluate", damaged)
+    assert bench(data, tmp_path / "results", "identity", seeds="0") == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == ["synthcal: error: S.zarr: true homography of sample 3: not a finite (3, 3) matrix"]

@@ -178,7 +178,9 @@ def test_paper_dictionary_is_the_whole_soccer_pool(stores, tmp_path):
 
 def write_config(tmp_path: Path, **dataset) -> Path:
     raw = yaml.safe_load((ROOT / "datasets.yaml").read_text())
-    raw["datasets"]["worldcup2014"] = dataset
+    # The user's file layers over the packaged one (mappings merge): null removes each packaged
+    # key the entry leaves out, so that the entry is exactly ``dataset``.
+    raw["datasets"]["worldcup2014"] = dict.fromkeys(raw["datasets"]["worldcup2014"]) | dataset
     path = tmp_path / "datasets.yaml"
     path.write_text(yaml.safe_dump(raw))
     return path

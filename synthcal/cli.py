@@ -196,10 +196,11 @@ def _cmd_split(args: argparse.Namespace) -> None:
     from synthcal.store.splits import store_spec
 
     spec = store_spec(open_store(args.store, writer=True), args.store)  # a writer: it reseals a killed one's work
-    overrides = {name: getattr(args, name) for name in ("train", "test", "dictionary")}
+    overrides = {name: getattr(args, name) for name in ("train", "test", "dictionary", "validation")}
     for name, value in overrides.items():  # here, so that the message names the flag
-        if value is not None and value < 1:
-            raise _UserError(f"--{name}: a split size must be an integer ≥ 1 (value {value!r})")
+        least = 0 if name == "validation" else 1
+        if value is not None and value < least:
+            raise _UserError(f"--{name}: a split size must be an integer ≥ {least} (value {value!r})")
     sizes = split_sizes(spec.splits, **{k: v for k, v in overrides.items() if v is not None})
     seeds = parse_seeds(args.seeds) if args.seeds else None
     _print_draw(draw_splits(args.store, seeds, sizes))
@@ -304,7 +305,7 @@ def _print_splits(group: zarr.Group) -> None:
     for seed in drawn_seeds(group):
         sub = group_at(group, f"splits/seed-{seed}")
         sizes = ", ".join(f"{name} {array_at(sub, name).shape[0]}"
-                          for name in ("train", "test", "dictionary") if name in sub)
+                          for name in ("train", "test", "dictionary", "validation") if name in sub)
         mixed = ""
         if "mixed_dictionary" in sub:
             sources = attributes(group_at(sub, "mixed_dictionary"))["sources"]
@@ -649,10 +650,10 @@ def _add_generate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 
 def _add_split(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = sub.add_parser("split", help="draw the per-seed train/test/dictionary splits inside a store")
+    p = sub.add_parser("split", help="draw the per-seed train/test/dictionary/validation splits inside a store")
     p.add_argument("store", type=Path, help="the store, e.g. work/data/intersection-1.zarr")
     p.add_argument("--seeds", default=None, help="e.g. 0-4 or 0,2,5 (default: the store's split_seeds)")
-    for name in ("train", "test", "dictionary"):
+    for name in ("train", "test", "dictionary", "validation"):
         p.add_argument(f"--{name}", type=int, default=None, metavar="N",
                        help=f"{name} size (default: the store's recorded configuration)")
     p.set_defaults(func=_cmd_split)

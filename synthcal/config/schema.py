@@ -222,15 +222,21 @@ class AppearanceConfig(StrictModel):
 
 
 class SplitSizes(StrictModel):
-    """Sizes of the per-seed train / test / dictionary splits (SPEC §6)."""
+    """Sizes of the per-seed train / test / dictionary / validation splits (SPEC §6).
+
+    ``validation`` is drawn from what the other three leave; training choices read
+    it, never test. 0 (the default here, so that a configuration or store written
+    before it existed keeps its meaning): none; the bundled ``datasets.yaml`` sets 500.
+    """
 
     train: StrictInt = Field(3000, ge=1)
     test: StrictInt = Field(500, ge=1)
     dictionary: StrictInt = Field(1000, ge=1)
+    validation: StrictInt = Field(0, ge=0)
 
     @property
     def total(self) -> int:
-        return self.train + self.test + self.dictionary
+        return self.train + self.test + self.dictionary + self.validation
 
 
 class OsmSourceConfig(StrictModel):

@@ -25,7 +25,16 @@ import numpy as np
 import zarr
 
 from synthcal.generate.pipeline import load_scene, render_samples
-from synthcal.store import STORED_SPLITS, array_at, attributes, drawn_seeds, group_at, image_layouts, manifest, store_spec
+from synthcal.store import (
+    STORED_SPLITS,
+    array_at,
+    attributes,
+    drawn_seeds,
+    group_at,
+    image_layouts,
+    manifest,
+    store_spec,
+)
 from synthcal.store.images import IMAGES_ATTR, PRESENCE_ARRAY, images_attribute, images_rendering, rendered_mask
 from synthcal.store.shards import ShardLayout, read_rows, write_shard
 from synthcal.store.splits import source_store_path

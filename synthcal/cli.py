@@ -441,8 +441,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         except ValueError as error:
             raise _UserError(str(error)) from None
     segmentations = args.segmentation or [training.segmentation]
-    settings = training.settings()  # --stn-template / --class-reduction override the profile's
-    settings.update({key: value for key in ("stn_template", "class_reduction")
+    settings = training.settings()  # --stn-template / --class-reduction / --select / --patience override the profile's
+    settings.update({key: value for key in ("stn_template", "class_reduction", "select", "patience")
                      if (value := getattr(args, key)) is not None})
     dictionary = args.dictionary or {label: config.dictionary(label, args.profile) for label in args.datasets}
     runs = expand_runs(args.data, args.datasets, args.estimator, parse_seeds(args.seeds), args.profile,
@@ -523,6 +523,17 @@ def _seconds(text: str) -> float:
     if not 0 <= value < float("inf"):
         raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
     return value
+
+
+def _select_grid(text: str) -> dict[str, list[float]]:
+    """``--select``: ``learning_rate=1e-4,3e-4,1e-3`` → ``{"learning_rate": [...]}`` (a :class:`SelectGrid`)."""
+    from synthcal.config import SelectGrid
+
+    name, _, values = text.partition("=")
+    try:
+        return SelectGrid.model_validate({name.strip(): [float(v) for v in values.split(",")]}).model_dump()
+    except ValueError:  # pydantic's ValidationError too
+        raise argparse.ArgumentTypeError(f"{text!r} is not learning_rate=RATE,RATE,... (rates > 0)") from None
 
 
 def _positive_int(text: str) -> int:
@@ -729,6 +740,12 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--stn-template", default=None, choices=STN_TEMPLATES,
                    help="the template the bundled STNs read in training: retrieved (the Siamese's nearest, as at "
                         "test time) or ground-truth (lowest matching score); default: the profile's (retrieved)")
+    p.add_argument("--select", type=_select_grid, default=None, metavar="learning_rate=R1,R2,...",
+                   help="train each model at every rate and keep the best on the validation split "
+                        "(default: the profile's training.select, else its one learning_rate)")
+    p.add_argument("--patience", type=_positive_int, default=None, metavar="EPOCHS",
+                   help="keep the STN's best epoch on the validation split; stop after EPOCHS without a better "
+                        "one (default: the profile's training.patience, else every epoch)")
     p.add_argument("--class-reduction", default=None, choices=CLASS_REDUCTIONS,
                    help="how MSE, Top-MSE and the matching scores reduce over the class channels: sum (squared "
                         "distance of per-pixel class vectors) or mean (that / 4); default: the profile's (sum)")

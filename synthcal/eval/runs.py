@@ -222,9 +222,11 @@ def check_device(name: str) -> None:
 
 
 def _store_limits(store: Path, group: Any, limits: dict[str, int] | None) -> dict[str, int] | None:
-    """The caps that apply to a store: all of them, but not train/test of a dataset of given poses."""
+    """The caps that apply to a store: all of them, but not train/test of a dataset of given poses,
+    nor a validation size of 0 (sizes without a validation set keep their runs' ids)."""
     if not limits:
         return None
+    limits = {k: v for k, v in limits.items() if k != "validation" or v}
     if store_spec(group, store).poses is not None:
         limits = {k: v for k, v in limits.items() if k not in ("train", "test")}
     return dict(sorted(limits.items())) or None

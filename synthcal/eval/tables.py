@@ -26,6 +26,8 @@ column             needed  meaning
 ``dictionary``     no      ``split`` or ``pool``: what the run searched (caption)
 ``budget``         no      the run's training budget in words
                            (:func:`synthcal.eval.runs.training_budget`; caption)
+``chosen``         no      what the run chose on the validation split
+                           (:func:`synthcal.eval.runs.chosen_text`; caption, per model)
 =================  ======  ==========================================================
 
 A missing optional column, or a missing value (estimators without training or
@@ -298,6 +300,10 @@ def _conditions(results: pd.DataFrame, mixed: bool) -> dict[str, list[str]]:
         results = results[results["dataset"].astype(str).str.startswith("mixed-") == mixed]
     conditions = {"profile": _distinct(results, "profile"), "segmentation": _distinct(results, "segmentation"),
                   "dictionary": _distinct(results, "dictionary"), "budget": _distinct(results, "budget")}
+    if "chosen" in results and "model" in results:  # per model: each choice and how many runs made it
+        picked = results.dropna(subset=["chosen"]).groupby("model", sort=False)["chosen"]
+        conditions["chosen"] = [f"{model} " + ", ".join(f"{text} (×{n})" for text, n in chosen.value_counts(
+            sort=False).items()) for model, chosen in picked]
     # Estimators that read no segmentation (plug-ins, references) have none: the caption names those that do.
     if "segmentation" in results and "model" in results and results["segmentation"].isna().any():
         conditions["segmentation_readers"] = _distinct(results[results["segmentation"].notna()], "model")
@@ -410,6 +416,8 @@ def _conditions_text(conditions: Mapping[str, list[str]]) -> str:
         parts.append("dictionary: " + " | ".join(DICTIONARY_WORDS.get(v, v) for v in conditions["dictionary"]))
     if conditions.get("budget"):
         parts.append("training: " + " | ".join(conditions["budget"]))
+    if conditions.get("chosen"):
+        parts.append("chosen on validation: " + " | ".join(conditions["chosen"]))
     return f" Ours: {'; '.join(parts)}." if parts else ""
 
 

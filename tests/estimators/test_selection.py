@@ -10,7 +10,8 @@ import zarr
 from synthcal.config import load_config
 from synthcal.data import load_split, load_splits
 from synthcal.estimators import load_estimator
-from synthcal.eval.harness import execute_run, expand_runs, read_record, run_folder
+from synthcal.eval.harness import collect_results, execute_run, expand_runs, read_record, run_folder, table_runs
+from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.store import read_split_indices, write_manifest
 from synthcal.training import best_epoch
@@ -115,3 +116,11 @@ def test_test_data_is_never_read_while_training_or_selecting(smoke_stores, tmp_p
     assert first["history"] == second["history"] and first["selection"] == second["selection"]
     assert first["selection"]["split"] == "validation" and "stn-validation" in first["history"]
     assert first["summary"] != second["summary"]  # while the test scores did read the noise
+    # The table's caption says what validation chose, and the budget how.
+    frame = collect_results(clean.parent / "results")
+    rate = first["selection"]["chosen"]["learning_rate"]
+    epochs = first["selection"]["chosen"]["stn_epochs"]
+    assert frame.loc[0, "chosen"] == f"lr {rate:g}, STN {epochs} epochs"
+    caption = " ".join(format_table(table_runs(frame), "models").split())  # unwrapped
+    assert f"chosen on validation: proposed lr {rate:g}, STN {epochs} epochs (×1)" in caption
+    assert "learning rate chosen on validation from 0.0001, 0.003" in caption

@@ -753,7 +753,7 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 
     p.add_argument("--dictionary", default=None, choices=DICTIONARIES,
                    help="what the estimators search: split (the seed's drawn dictionary) or pool (every pool sample "
-                        "outside the seed's train and test sets; not for mixed dictionaries); default: the "
+                        "outside the seed's train, test and validation sets; not for mixed dictionaries); default: the "
                         "profile's or dataset's dictionary: in datasets.yaml, else split")
     p.add_argument("--device", default="auto", help="torch device: auto (CUDA when available), cpu, cuda")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the runs on this Dask scheduler")

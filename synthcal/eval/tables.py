@@ -118,8 +118,8 @@ PAIR_KEYS = (*KEYS, "segmentation", "profile")
 # The caption's words for a segmentation value.
 SEGMENTATION_WORDS = {"unet": "a UNet's segmentation", "ground-truth": "the true semantic maps (ground-truth)"}
 # The caption's words for a dictionary value (synthcal.eval.runs: Run.dictionary).
-DICTIONARY_WORDS = {"split": "the seed's drawn dictionary", "pool": "the whole pool outside the seed's train and test "
-                    "sets (rows NAME (pool))"}
+DICTIONARY_WORDS = {"split": "the seed's drawn dictionary", "pool": "the whole pool outside the seed's train, test and "
+                    "validation sets (rows NAME (pool))"}
 REQUIRED = ("dataset", "model", "seed")
 MISSING = "–"
 FORMATS = ("md", "latex", "csv")

@@ -36,6 +36,7 @@ fault) goes to ``RESULTS/runs/<run-id>/crash.log``, recorded as the outcome's
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import json
 import os
 import shutil
@@ -125,6 +126,15 @@ def _reads_validation(run: Run) -> bool:
     return settings.get("patience") is not None or settings.get("select") is not None
 
 
+def _takes_validation(estimator: Any) -> bool:
+    """Whether ``fit`` takes the protocol's optional ``validation`` keyword (an estimator that
+    takes training settings without choosing anything on held-out data need not)."""
+    try:
+        return "validation" in inspect.signature(estimator.fit).parameters
+    except (TypeError, ValueError):  # a builtin or C-implemented fit: no such keyword known
+        return False
+
+
 def load_run_split(run: Run, split: str, scene: StoreScene) -> SplitDataset:
     """One split of the run as it uses it: capped by ``run.limits`` (:func:`prefix_positions`).
 
@@ -199,8 +209,7 @@ def _estimate(run: Run, results: Path, progress: bool, stage: Callable[[str], No
         name, started = "fit", time.perf_counter()
         stage(name)
         train = splits["train"]
-        if "validation" in splits:  # the only split training choices read (SPEC §6); never test
-            # an optional keyword of the protocol, taken by estimators whose settings ask for it
+        if "validation" in splits and _takes_validation(estimator):  # what training choices read; never test
             cast(Any, estimator).fit(train, splits["dictionary"], scene, validation=splits["validation"])
         else:
             estimator.fit(train, splits["dictionary"], scene)

@@ -124,3 +124,10 @@ def test_test_data_is_never_read_while_training_or_selecting(smoke_stores, tmp_p
     caption = " ".join(format_table(table_runs(frame), "models").split())  # unwrapped
     assert f"chosen on validation: proposed lr {rate:g}, STN {epochs} epochs (×1)" in caption
     assert "learning rate chosen on validation from 0.0001, 0.003" in caption
+
+
+def test_the_validation_split_goes_only_to_a_fit_that_takes_it():
+    from synthcal.eval.isolation import _takes_validation
+
+    assert _takes_validation(load_estimator("proposed")) and _takes_validation(load_estimator("retrieved"))
+    assert not _takes_validation(load_estimator("oracle-template"))  # takes settings, chooses nothing

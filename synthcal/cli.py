@@ -322,10 +322,11 @@ def _cmd_split(args: argparse.Namespace) -> None:
     from synthcal.store.splits import store_spec
 
     spec = store_spec(open_store(args.store, writer=True), args.store)  # a writer: it reseals a killed one's work
-    overrides = {name: getattr(args, name) for name in ("train", "test", "dictionary")}
+    overrides = {name: getattr(args, name) for name in ("train", "test", "dictionary", "validation")}
     for name, value in overrides.items():  # here, so that the message names the flag
-        if value is not None and value < 1:
-            raise _UserError(f"--{name}: a split size must be an integer ≥ 1 (value {value!r})")
+        least = 0 if name == "validation" else 1
+        if value is not None and value < least:
+            raise _UserError(f"--{name}: a split size must be an integer ≥ {least} (value {value!r})")
     sizes = split_sizes(spec.splits, **{k: v for k, v in overrides.items() if v is not None})
     seeds = parse_seeds(args.seeds) if args.seeds else None
     _print_draw(draw_splits(args.store, seeds, sizes))
@@ -459,7 +460,7 @@ def _print_splits(group: zarr.Group) -> None:
     for seed in drawn_seeds(group):
         sub = group_at(group, f"splits/seed-{seed}")
         sizes = ", ".join(f"{name} {array_at(sub, name).shape[0]}"
-                          for name in ("train", "test", "dictionary") if name in sub)
+                          for name in ("train", "test", "dictionary", "validation") if name in sub)
         mixed = ""
         if "mixed_dictionary" in sub:
             sources = attributes(group_at(sub, "mixed_dictionary"))["sources"]
@@ -599,8 +600,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         except ValueError as error:
             raise _UserError(str(error)) from None
     segmentations = args.segmentation or [training.segmentation]
-    settings = training.settings()  # --stn-template / --class-reduction override the profile's
-    settings.update({key: value for key in ("stn_template", "class_reduction")
+    settings = training.settings()  # --stn-template / --class-reduction / --select / --patience override the profile's
+    settings.update({key: value for key in ("stn_template", "class_reduction", "select", "patience")
                      if (value := getattr(args, key)) is not None})
     dictionary = args.dictionary or {label: config.dictionary(label, args.profile) for label in args.datasets}
     estimators = merge_options(args.estimator, config.config.estimators, args.option)
@@ -710,6 +711,17 @@ def _seconds(text: str) -> float:
     if not 0 <= value < float("inf"):
         raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
     return value
+
+
+def _select_grid(text: str) -> dict[str, list[float]]:
+    """``--select``: ``learning_rate=1e-4,3e-4,1e-3`` → ``{"learning_rate": [...]}`` (a :class:`SelectGrid`)."""
+    from synthcal.config import SelectGrid
+
+    name, _, values = text.partition("=")
+    try:
+        return SelectGrid.model_validate({name.strip(): [float(v) for v in values.split(",")]}).model_dump()
+    except ValueError:  # pydantic's ValidationError too
+        raise argparse.ArgumentTypeError(f"{text!r} is not learning_rate=RATE,RATE,... (rates > 0)") from None
 
 
 def _positive_int(text: str) -> int:
@@ -903,10 +915,10 @@ def _add_generate(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 
 def _add_split(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = sub.add_parser("split", help="draw the per-seed train/test/dictionary splits inside a store")
+    p = sub.add_parser("split", help="draw the per-seed train/test/dictionary/validation splits inside a store")
     p.add_argument("store", type=Path, help="the store, e.g. work/data/intersection-1.zarr")
     p.add_argument("--seeds", default=None, help="e.g. 0-4 or 0,2,5 (default: the store's split_seeds)")
-    for name in ("train", "test", "dictionary"):
+    for name in ("train", "test", "dictionary", "validation"):
         p.add_argument(f"--{name}", type=int, default=None, metavar="N",
                        help=f"{name} size (default: the store's recorded configuration)")
     p.set_defaults(func=_cmd_split)
@@ -1022,6 +1034,12 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--stn-template", default=None, choices=STN_TEMPLATES,
                    help="the template the bundled STNs read in training: retrieved (the Siamese's nearest, as at "
                         "test time) or ground-truth (lowest matching score); default: the profile's (retrieved)")
+    p.add_argument("--select", type=_select_grid, default=None, metavar="learning_rate=R1,R2,...",
+                   help="train each model at every rate and keep the best on the validation split "
+                        "(default: the profile's training.select, else its one learning_rate)")
+    p.add_argument("--patience", type=_positive_int, default=None, metavar="EPOCHS",
+                   help="keep the STN's best epoch on the validation split; stop after EPOCHS without a better "
+                        "one (default: the profile's training.patience, else every epoch)")
     p.add_argument("--class-reduction", default=None, choices=CLASS_REDUCTIONS,
                    help="how MSE, Top-MSE and the matching scores reduce over the class channels: sum (squared "
                         "distance of per-pixel class vectors) or mean (that / 4); default: the profile's (sum)")
@@ -1029,7 +1047,7 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 
     p.add_argument("--dictionary", default=None, choices=DICTIONARIES,
                    help="what the estimators search: split (the seed's drawn dictionary) or pool (every pool sample "
-                        "outside the seed's train and test sets; not for mixed dictionaries); default: the "
+                        "outside the seed's train, test and validation sets; not for mixed dictionaries); default: the "
                         "profile's or dataset's dictionary: in datasets.yaml, else split")
     p.add_argument("--device", default="auto", help="torch device: auto (CUDA when available), cpu, cuda")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the runs on this Dask scheduler")

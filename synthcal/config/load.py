@@ -212,7 +212,8 @@ class LoadedConfig:
                     raise ConfigError(
                         f"{key}.splits.{name}: the poses {poses!r} fix {name} at {fixed[name]} (value {value})"
                     )
-        return sum(fixed.values()), splits.model_copy(update=fixed)
+        # the poses fill the pool: no sample is left for a validation set
+        return sum(fixed.values()), splits.model_copy(update={**fixed, "validation": 0})
 
 
 def _check_references(where: Where, config: Config) -> None:

@@ -42,6 +42,7 @@ __all__ = [
     "Defaults",
     "TrainingSettings",
     "TrainingProfile",
+    "SelectGrid",
     "ProfileConfig",
     "Config",
 ]
@@ -222,15 +223,21 @@ class AppearanceConfig(StrictModel):
 
 
 class SplitSizes(StrictModel):
-    """Sizes of the per-seed train / test / dictionary splits (SPEC §6)."""
+    """Sizes of the per-seed train / test / dictionary / validation splits (SPEC §6).
+
+    ``validation`` is drawn from what the other three leave; training choices read
+    it, never test. 0 (the default here, so that a configuration or store written
+    before it existed keeps its meaning): none; the bundled ``datasets.yaml`` sets 500.
+    """
 
     train: StrictInt = Field(3000, ge=1)
     test: StrictInt = Field(500, ge=1)
     dictionary: StrictInt = Field(1000, ge=1)
+    validation: StrictInt = Field(0, ge=0)
 
     @property
     def total(self) -> int:
-        return self.train + self.test + self.dictionary
+        return self.train + self.test + self.dictionary + self.validation
 
 
 class OsmSourceConfig(StrictModel):
@@ -402,6 +409,13 @@ class Defaults(StrictModel):
     split_seeds: tuple[StrictInt, ...] = (0, 1, 2, 3, 4)
 
 
+class SelectGrid(StrictModel):
+    """The values a run tries, each trained in full, the best on the validation split kept
+    (:mod:`synthcal.estimators.paper`). Only the learning rate so far."""
+
+    learning_rate: tuple[Annotated[StrictFloat, Field(gt=0)], ...] = Field(min_length=1)
+
+
 class TrainingSettings(StrictModel):
     """Network sizes and schedules of the bundled models (SPEC §7) under one profile.
 
@@ -422,6 +436,12 @@ class TrainingSettings(StrictModel):
     behind the default). ``batch_norm`` switches the STN's batch normalisation
     (None: each STN's own default — on for ``proposed`` and ``ccbv``, off for
     ``baseline``; :mod:`synthcal.models.stn`), so BN is an ablation of its own.
+    ``patience`` (None: every epoch, the last weights): the step-by-step STN is
+    scored on the validation split after each epoch, the best epoch's weights are
+    kept, and training stops after ``patience`` epochs without a better score.
+    ``select`` (None: ``learning_rate`` alone): the learning rates tried, the one
+    whose trained model scores best on the validation split kept. Both read the
+    validation split, never test.
     """
 
     work_size: tuple[StrictInt, StrictInt] | None = None
@@ -441,6 +461,8 @@ class TrainingSettings(StrictModel):
     stn_template: StnTemplate = "retrieved"
     class_reduction: ClassReduction = "sum"
     batch_norm: StrictBool | None = None
+    patience: StrictInt | None = Field(None, ge=1)
+    select: SelectGrid | None = None
 
     @field_validator("work_size")
     @classmethod
@@ -463,10 +485,11 @@ class TrainingProfile(TrainingSettings):
     def settings(self) -> dict[str, Any]:
         """The :class:`TrainingSettings` fields as a plain dict (what estimators take).
 
-        ``batch_norm`` is left out while None (each STN's default), so that the runs
-        recorded before it existed keep their ids (the settings are in the run's hash).
+        ``batch_norm``, ``patience`` and ``select`` are left out while None, so that the
+        runs recorded before they existed keep their ids (the settings are in the run's
+        hash; set, they are part of it).
         """
-        unset = {"batch_norm"} if self.batch_norm is None else set()
+        unset = {name for name in ("batch_norm", "patience", "select") if getattr(self, name) is None}
         return self.model_dump(mode="json", exclude={"segmentation", *unset})
 
 

@@ -75,7 +75,7 @@ StnTemplate = Literal["retrieved", "ground-truth"]
 # ``sum``: the squared distance between per-pixel class vectors; ``mean``: that divided by C.
 ClassReduction = Literal["sum", "mean"]
 # What ``synthcal bench`` searches: the seed's dictionary split, or every pool sample
-# outside the seed's train and test sets (README "The pool dictionary").
+# outside the seed's train, test and validation sets (README "The pool dictionary").
 Dictionary = Literal["split", "pool"]
 # Which RGB images a store holds: every sample's, or only those of drawn splits (synthcal.store.images).
 Images = Literal["all", "splits"]

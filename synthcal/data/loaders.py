@@ -37,6 +37,7 @@ import zarr
 from synthcal.store import array_at, attributes, open_store, read_samples
 from synthcal.store.splits import (
     SPLIT_NAMES,
+    STORED_SPLITS,
     SplitError,
     read_mixed_dictionary,
     read_mixed_samples,
@@ -179,7 +180,7 @@ def load_split(
 
     Args:
         store: the dataset's store ``NAME.zarr``.
-        split: ``train``, ``test`` or ``dictionary``.
+        split: ``train``, ``test``, ``dictionary`` or ``validation``.
         seed: the split seed (drawn by ``synthcal split``).
         mixed: for ``dictionary``: True loads the mixed dictionary (templates from
             the source stores beside this one), False the store's own; None (the
@@ -195,8 +196,8 @@ def load_split(
             or changed source store; the message names store, key and value.
     """
     store = Path(store)
-    if split not in SPLIT_NAMES:
-        raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(SPLIT_NAMES)}")
+    if split not in STORED_SPLITS:
+        raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(STORED_SPLITS)}")
     if mixed and split != "dictionary":
         raise SplitError(f"{store}: mixed=True: only the dictionary can be mixed (split {split!r})")
     group = open_store(store)  # once per call: the manifest check costs a stat per shard file

@@ -1,8 +1,8 @@
-"""The pool dictionary: every pool sample outside a seed's train and test sets, read lazily.
+"""The pool dictionary: every pool sample outside a seed's train, test and validation sets, read lazily.
 
 >>> d = load_pool_dictionary("out/intersection-1.zarr", seed=0)      # doctest: +SKIP
 >>> len(d), d.semantics.shape                                         # doctest: +SKIP
-(46500, (46500, 144, 256))
+(46000, (46000, 144, 256))
 >>> for start, maps in d.semantics.batches(1024): ...                 # doctest: +SKIP
 
 The object is a :class:`synthcal.data.SplitDataset` (``split`` ``dictionary``,

@@ -72,12 +72,28 @@ The option values are defined once, in :mod:`synthcal.config`.
     :attr:`trained_stages` lists what the last :meth:`fit` trained rather than
     loaded, :attr:`history` their per-epoch mean losses. End-to-end training
     shares nothing.
+
+Validation and selection
+------------------------
+``fit``'s ``validation`` split (the harness passes it when the settings ask) is
+all that ``settings.patience`` and ``settings.select`` read, never test. The
+score is the **validation ``L_warp`` of the estimates**: each validation map
+gets the template the trained Siamese retrieves (as a test image would), the
+STN refines it, and the run's own loss compares the views
+(:func:`synthcal.training.validation_loss`; docs/decisions.md says why).
+``patience``: the step-by-step STN is scored after every epoch, the best epoch's
+weights kept, training stopped after ``patience`` epochs without a better score.
+``select: {learning_rate: [...]}``: the whole model is fitted at each rate and the
+best-scoring fit kept; :attr:`selection` records ``{split, grid, scores, chosen,
+score}``. A rate is one setting for every stage, so the cached UNet and Siamese
+at a rate are shared by all the runs (models, losses) that try it.
 ``seed``
     seeds weight initialisation and batch order.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
@@ -114,13 +130,17 @@ from synthcal.models import (
     match_ground_truth,
     merge_matches,
     one_hot_maps,
+    warp_loss,
 )
 from synthcal.training import (
     MATCHING_SCORES,
     NUM_CLASSES,
+    WARP_LOSS_NAMES,
     ClassMapLogits,
     StageCache,
+    StnExamples,
     TrainingData,
+    best_epoch,
     composite_model,
     digest,
     embed_templates,
@@ -130,11 +150,13 @@ from synthcal.training import (
     reduce_images,
     reduce_scene,
     resolution_matrix,
+    retrieve_templates,
     stn_templates,
     train_end_to_end,
     train_siamese,
     train_stn,
     train_unet,
+    validation_loss,
 )
 
 __all__ = ["STN_CLASSES", "BATCH_NORM_DEFAULTS", "model_label", "PaperEstimator", "ProposedEstimator",
@@ -208,6 +230,16 @@ class _Common(TypedDict):
     progress: bool
 
 
+def _ranking(scores: Sequence[float], k: int) -> tuple[bool, float]:
+    """Sort key of fit ``k``: a NaN score (a diverged fit) after every number, then lower first."""
+    return bool(np.isnan(scores[k])), scores[k]
+
+
+def _best(scores: Sequence[float]) -> int:
+    """The fit kept: the lowest score, the first of equal ones."""
+    return min(range(len(scores)), key=lambda k: _ranking(scores, k))
+
+
 class PaperEstimator:
     """The paper's UNet → Siamese → STN pipeline behind the estimator interface.
 
@@ -238,7 +270,9 @@ class PaperEstimator:
         self.label = model_label(self.model, self.settings.batch_norm)
         self.trained_stages: list[str] = []
         self.history: dict[str, list[float]] = {}
+        self.selection: dict[str, Any] | None = None
         self._fitted: dict[str, Any] | None = None
+        self._held_out: TrainingData | None = None
 
     @classmethod
     def variant_label(cls, settings: TrainingSettings | Mapping[str, Any] | None) -> str:
@@ -342,10 +376,74 @@ class PaperEstimator:
 
     # --- fitting --------------------------------------------------------------------------
 
-    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike) -> None:
-        """Train the stages on ``train`` against ``dictionary`` over ``scene`` (SPEC §9)."""
-        self.trained_stages, self.history = [], {}
+    def fit(self, train: SplitLike, dictionary: SplitLike, scene: SceneLike,
+            validation: SplitLike | None = None) -> None:
+        """Train the stages on ``train`` against ``dictionary`` over ``scene`` (SPEC §9).
+
+        ``validation``: the held-out split ``settings.patience`` and ``settings.select``
+        read (module docstring); required by them, unused otherwise.
+
+        Raises:
+            ValueError: ``patience`` or ``select`` without a validation split.
+        """
+        s = self.settings
+        if (s.patience is not None or s.select is not None) and validation is None:
+            asked = "patience" if s.select is None else "select"
+            raise ValueError(f"settings.{asked}: needs a validation split, and none was given (draw one with "
+                             f"`synthcal split STORE --validation N`)")
+        self.trained_stages, self.selection = [], None
         data, keys = self._data(train, dictionary, scene)
+        self._held_out = None if validation is None else self._validation_data(validation, data)
+        grid = (s.learning_rate,) if s.select is None else s.select.learning_rate
+        scores: list[float] = []
+        kept: tuple[dict[str, Any] | None, dict[str, list[float]]] = (None, {})
+        try:
+            for rate in grid:
+                self.settings, self.history = s.model_copy(update={"learning_rate": rate}), {}
+                self._fit_at(train, dictionary, data, keys)
+                scores.append(float("nan") if s.select is None else self._validation_score())
+                if _best(scores) == len(scores) - 1:
+                    kept = (self._fitted, self.history)  # only the best fit so far is held
+        finally:
+            self.settings = s
+        self._fitted, self.history = kept
+        if s.select is not None:
+            self.selection = {"split": "validation", "score": f"L_warp ({self.loss}) of the estimates",
+                              "grid": {"learning_rate": list(grid)}, "scores": {"learning_rate": scores},
+                              "chosen": {"learning_rate": grid[_best(scores)], **self._chosen_epochs()}}
+
+    def _chosen_epochs(self) -> dict[str, int]:
+        """``stn_epochs`` the kept STN trained to its best validation epoch (under ``patience``)."""
+        scores = self.history.get("stn-validation")
+        return {"stn_epochs": best_epoch(scores) + 1} if scores else {}
+
+    def _validation_data(self, validation: SplitLike, data: TrainingData) -> TrainingData:
+        """The validation split at the working resolution, beside the train split's dictionary and scene."""
+        semantics = np.asarray(validation.semantics)
+        A = torch.from_numpy(resolution_matrix((semantics.shape[2], semantics.shape[1]), data.work_size))
+        images = reduce_images(np.asarray(validation.images), data.work_size) if self.uses_unet else None
+        return dataclasses.replace(
+            data, images=images, semantics=reduce_class_maps(semantics, data.work_size),
+            homographies=A @ torch.from_numpy(np.asarray(validation.homographies, np.float64)),
+            match=torch.zeros(len(semantics), dtype=torch.long))
+
+    def _validation_examples(self, siamese: SiameseNet, unet: nn.Module | None,
+                             embedding: Tensor) -> tuple[StnExamples, Tensor]:
+        """Validation items with the templates the Siamese retrieves for them, and those templates' ``A H_k``."""
+        held_out = cast(TrainingData, self._held_out)
+        retrieved = retrieve_templates(siamese, held_out, unet, self.device, dictionary=embedding)
+        return (StnExamples(held_out, retrieved, unet, self.device),
+                held_out.template_homographies[retrieved].to(self.device))
+
+    def _validation_score(self) -> float:
+        """The fitted model's validation ``L_warp`` of its estimates (module docstring)."""
+        f = self._check_fitted()
+        examples, homographies = self._validation_examples(f["siamese"], f["unet"], f["embedding"])
+        criterion = warp_loss(WARP_LOSS_NAMES[self.loss], self.settings.class_reduction)
+        return validation_loss(f["stn"], examples, homographies, criterion)
+
+    def _fit_at(self, train: SplitLike, dictionary: SplitLike, data: TrainingData, keys: dict[str, str]) -> None:
+        """One fit under the current settings (one learning rate); sets :attr:`_fitted`."""
         s, device = self.settings, self.device
         common = _Common(batch_size=s.batch_size, lr=s.learning_rate, device=device, seed=self.seed,
                          progress=self.progress)
@@ -401,8 +499,14 @@ class PaperEstimator:
         None: no refinement (a subclass's choice)."""
         s = self.settings
         templates = stn_templates(s.stn_template, data, siamese, unet, self.device, dictionary=embedding)
+        validate = None
+        if s.patience is not None:
+            examples, homographies = self._validation_examples(siamese, unet, embedding)
+            criterion = warp_loss(WARP_LOSS_NAMES[self.loss], s.class_reduction)
+            validate = lambda stn: validation_loss(stn, examples, homographies, criterion)  # noqa: E731
         stn = train_stn(self._stn(data.work_size), data, unet, self.loss, s.stn_epochs, log=self._log("stn"),
-                        templates=templates, class_reduction=s.class_reduction, **common)
+                        templates=templates, class_reduction=s.class_reduction, validate=validate,
+                        patience=s.patience, scores=self._log("stn-validation") if validate else None, **common)
         self.trained_stages.append("stn")
         return stn
 

@@ -15,7 +15,10 @@ An estimator is any class with
   slicing and ``numpy.asarray``. ``scene`` (:class:`SceneLike`) exposes ``.image`` (Hs, Ws, 3) uint8,
   ``.semantic`` (Hs, Ws) uint8, ``.palette`` (4 RGB triples) and ``.classes``
   (4 names). The objects come from ``synthcal.data.load_split``; an estimator
-  should use these attributes only.
+  should use these attributes only. When the run's training settings choose
+  something on held-out data (``patience``, ``select``), the harness also passes
+  ``validation=`` (the seed's validation split, the same kind of object): training
+  choices read it, never the test split (SPEC §6).
 * ``predict(images) -> (B, 3, 3)`` — ``images`` (B, H, W, 3) uint8 RGB; returns
   bird's-eye → image homographies as float64, any positive or negative scale
   (the harness fixes the sign, SPEC §2). A row may be NaN where the estimator

@@ -107,6 +107,7 @@ from synthcal.eval.runs import (
     AXES,
     Run,
     check_device,
+    chosen_text,
     dataset_store,
     estimator_label,
     expand_runs,
@@ -143,6 +144,7 @@ __all__ = [
     "is_finished",
     "recorded_seconds",
     "training_budget",
+    "chosen_text",
     "table_runs",
 ]
 
@@ -394,7 +396,8 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
         means over scored test images, failures as 0, or medians of the pixel errors;
         NaN for a metric the run's record predates), the pixel errors' failure shares
         ``reproj_px_failed`` and ``corner_error_failed``, ``completeness``, ``n_images``, ``n_skipped``, ``status``, ``error`` (``""`` for a run
-        that is ok), ``run_id``, ``device``, ``budget`` (:func:`training_budget`;
+        that is ok), ``run_id``, ``device``, ``chosen`` (:func:`chosen_text`: what validation chose),
+        ``budget`` (:func:`training_budget`;
         None for estimators that do not train) and ``dictionary`` (``split``, or ``pool``:
         then ``dataset`` reads ``NAME (pool)``). A damaged ``run.json`` is skipped with a
         :class:`DamagedRecordWarning` naming it.
@@ -421,11 +424,12 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
             warnings.warn(f"{path}: damaged run record skipped (no {error})", DamagedRecordWarning, stacklevel=2)
             continue
         row.update(status=record["status"], error=record.get("error") or "", run_id=record["id"],
-                   device=run.get("device"), budget=training_budget(record), dictionary=run.get("dictionary", "split"))
+                   device=run.get("device"), budget=training_budget(record), dictionary=run.get("dictionary", "split"),
+                   chosen=chosen_text(record))
         rows.append(row)
     columns = ["dataset", "model", "training", "loss", "matching_score", "segmentation", "profile", "seed",
                "estimator", *METRICS, *FAILURE_SHARES.values(), "completeness", "n_images", "n_skipped", "status", "error", "run_id",
-               "device", "budget", "dictionary"]
+               "device", "budget", "dictionary", "chosen"]
     return pd.DataFrame(rows, columns=columns)
 
 

@@ -36,6 +36,7 @@ fault) goes to ``RESULTS/runs/<run-id>/crash.log``, recorded as the outcome's
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import json
 import os
 import shutil
@@ -50,7 +51,7 @@ import warnings
 from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -122,6 +123,21 @@ def _read_only_split(split: SplitDataset, scene: StoreScene) -> SplitDataset:
     return split
 
 
+def _reads_validation(run: Run) -> bool:
+    """Whether the run's settings choose anything on the validation split (``patience``, ``select``)."""
+    settings = run.settings or {}
+    return settings.get("patience") is not None or settings.get("select") is not None
+
+
+def _takes_validation(estimator: Any) -> bool:
+    """Whether ``fit`` takes the protocol's optional ``validation`` keyword (an estimator that
+    takes training settings without choosing anything on held-out data need not)."""
+    try:
+        return "validation" in inspect.signature(estimator.fit).parameters
+    except (TypeError, ValueError):  # a builtin or C-implemented fit: no such keyword known
+        return False
+
+
 def load_run_split(run: Run, split: str, scene: StoreScene) -> SplitDataset:
     """One split of the run as it uses it: capped by ``run.limits`` (:func:`prefix_positions`).
 
@@ -177,15 +193,15 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
         dict with ``estimates`` (:func:`_plain_estimates`, None on failure), ``error``
         (``""`` or ``"<stage>: <exception>"``), ``data_error`` (a store or split that
         cannot be read: the sweep stops), ``sizes`` (samples of each split used),
-        ``fit_seconds``, ``predict_seconds``, ``history``, ``traceback`` where they apply.
+        ``fit_seconds``, ``predict_seconds``, ``history``, ``selection``, ``traceback`` where they apply.
     """
     outcome: dict[str, Any] = {"estimates": None, "error": ""}
     name = "load"
     stage(name)
     try:
         scene = _read_only_scene(read_scene(run.store))
-        splits = {split: _read_only_split(load_run_split(run, split, scene), scene)
-                  for split in ("train", "test", "dictionary")}
+        names = ["train", "test", "dictionary", *(["validation"] if _reads_validation(run) else [])]
+        splits = {split: _read_only_split(load_run_split(run, split, scene), scene) for split in names}
         outcome["sizes"] = {split: len(data) for split, data in splits.items()}
     except StoreError as error:  # the data, not the estimator: stops the sweep (module docstring)
         outcome["data_error"] = str(error)
@@ -196,7 +212,10 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
         name, started = "fit", time.perf_counter()
         stage(name)
         train = splits["train"]
-        estimator.fit(train, splits["dictionary"], scene)
+        if "validation" in splits and _takes_validation(estimator):  # what training choices read; never test
+            cast(Any, estimator).fit(train, splits["dictionary"], scene, validation=splits["validation"])
+        else:
+            estimator.fit(train, splits["dictionary"], scene)
         outcome["fit_seconds"] = time.perf_counter() - started
         name, started = "predict", time.perf_counter()
         stage(name)
@@ -210,9 +229,10 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
         outcome["predict_seconds"] = time.perf_counter() - started
         name = "predict: result not readable"
         outcome["estimates"] = _plain_estimates(estimates, len(test.indices))
-        history = getattr(estimator, "history", None)
-        if isinstance(history, dict):  # per-epoch losses of the bundled models
-            outcome["history"] = json.loads(json.dumps(history, default=float))
+        for name in ("history", "selection"):  # per-epoch losses and what validation chose (bundled models)
+            value = getattr(estimator, name, None)
+            if isinstance(value, dict):
+                outcome[name] = json.loads(json.dumps(value, default=float))
     except Exception as error:  # an estimator's failure is a result, not a crash (module docstring)
         detail = "".join(traceback.format_exception_only(type(error), error)).strip()
         outcome.update(estimates=None, error=f"{name}: {detail}", traceback=traceback.format_exc())

@@ -108,7 +108,7 @@ from synthcal.store.splits import (
 )
 
 __all__ = ["AXES", "Run", "dataset_store", "estimator_label", "resolve_device", "check_device", "expand_runs",
-           "split_sizes", "plan_lines", "prefix_positions", "training_budget", "constructor_parameters", "table_label"]
+           "split_sizes", "plan_lines", "prefix_positions", "training_budget", "chosen_text", "constructor_parameters", "table_label"]
 
 # Run fields an estimator may take as constructor keywords (values: synthcal.config).
 AXES = ("training", "loss", "matching", "segmentation")
@@ -243,9 +243,11 @@ def check_device(name: str) -> None:
 
 
 def _store_limits(store: Path, group: Any, limits: dict[str, int] | None) -> dict[str, int] | None:
-    """The caps that apply to a store: all of them, but not train/test of a dataset of given poses."""
+    """The caps that apply to a store: all of them, but not train/test of a dataset of given poses,
+    nor a validation size of 0 (sizes without a validation set keep their runs' ids)."""
     if not limits:
         return None
+    limits = {k: v for k, v in limits.items() if k != "validation" or v}
     if store_spec(group, store).poses is not None:
         limits = {k: v for k, v in limits.items() if k not in ("train", "test")}
     return dict(sorted(limits.items())) or None
@@ -490,5 +492,23 @@ def training_budget(record: dict[str, Any]) -> str | None:
         parts.append(f"at {width} × {height}")
     parts += [f"{key.replace('_', ' ')} {settings[key]}" for key in ("stn_template", "class_reduction")
               if settings.get(key) is not None]
+    if settings.get("patience") is not None:
+        parts.append(f"best STN epoch on validation, patience {settings['patience']}")
+    if settings.get("select"):
+        rates = ", ".join(f"{rate:g}" for rate in settings["select"]["learning_rate"])
+        parts.append(f"learning rate chosen on validation from {rates}")
     return "; ".join(parts)
+
+
+def chosen_text(record: dict[str, Any]) -> str | None:
+    """What the run's selection chose on the validation split, in words (None: no selection).
+
+    >>> chosen_text({"selection": {"chosen": {"learning_rate": 0.0003, "stn_epochs": 12}}})
+    'lr 0.0003, STN 12 epochs'
+    """
+    chosen = (record.get("selection") or {}).get("chosen")
+    if not isinstance(chosen, dict):
+        return None
+    words = {"learning_rate": "lr {:g}", "stn_epochs": "STN {} epochs"}
+    return ", ".join(words.get(key, key + " {}").format(value) for key, value in chosen.items())
 

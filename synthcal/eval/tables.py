@@ -28,6 +28,8 @@ column             needed  meaning
 ``dictionary``     no      ``split`` or ``pool``: what the run searched (caption)
 ``budget``         no      the run's training budget in words
                            (:func:`synthcal.eval.runs.training_budget`; caption)
+``chosen``         no      what the run chose on the validation split
+                           (:func:`synthcal.eval.runs.chosen_text`; caption, per model)
 =================  ======  ==========================================================
 
 A missing optional column, or a missing value (estimators without training or
@@ -118,8 +120,8 @@ PAIR_KEYS = (*KEYS, "segmentation", "profile")
 # The caption's words for a segmentation value.
 SEGMENTATION_WORDS = {"unet": "a UNet's segmentation", "ground-truth": "the true semantic maps (ground-truth)"}
 # The caption's words for a dictionary value (synthcal.eval.runs: Run.dictionary).
-DICTIONARY_WORDS = {"split": "the seed's drawn dictionary", "pool": "the whole pool outside the seed's train and test "
-                    "sets (rows NAME (pool))"}
+DICTIONARY_WORDS = {"split": "the seed's drawn dictionary", "pool": "the whole pool outside the seed's train, test and "
+                    "validation sets (rows NAME (pool))"}
 REQUIRED = ("dataset", "model", "seed")
 MISSING = "–"
 FORMATS = ("md", "latex", "csv")
@@ -304,6 +306,10 @@ def _conditions(results: pd.DataFrame, mixed: bool) -> dict[str, list[str]]:
         results = results[results["dataset"].astype(str).str.startswith("mixed-") == mixed]
     conditions = {"profile": _distinct(results, "profile"), "segmentation": _distinct(results, "segmentation"),
                   "dictionary": _distinct(results, "dictionary"), "budget": _distinct(results, "budget")}
+    if "chosen" in results and "model" in results:  # per model: each choice and how many runs made it
+        picked = results.dropna(subset=["chosen"]).groupby("model", sort=False)["chosen"]
+        conditions["chosen"] = [f"{model} " + ", ".join(f"{text} (×{n})" for text, n in chosen.value_counts(
+            sort=False).items()) for model, chosen in picked]
     # Estimators that read no segmentation (plug-ins, references) have none: the caption names those that do.
     if "segmentation" in results and "model" in results and results["segmentation"].isna().any():
         conditions["segmentation_readers"] = _distinct(results[results["segmentation"].notna()], "model")
@@ -420,6 +426,8 @@ def _conditions_text(conditions: Mapping[str, list[str]]) -> str:
         parts.append("dictionary: " + " | ".join(DICTIONARY_WORDS.get(v, v) for v in conditions["dictionary"]))
     if conditions.get("budget"):
         parts.append("training: " + " | ".join(conditions["budget"]))
+    if conditions.get("chosen"):
+        parts.append("chosen on validation: " + " | ".join(conditions["chosen"]))
     return f" Ours: {'; '.join(parts)}." if parts else ""
 
 

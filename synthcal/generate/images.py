@@ -25,7 +25,16 @@ import numpy as np
 import zarr
 
 from synthcal.generate.pipeline import load_scene, render_samples
-from synthcal.store import SPLIT_NAMES, array_at, attributes, drawn_seeds, group_at, image_layouts, manifest, store_spec
+from synthcal.store import (
+    STORED_SPLITS,
+    array_at,
+    attributes,
+    drawn_seeds,
+    group_at,
+    image_layouts,
+    manifest,
+    store_spec,
+)
 from synthcal.store.images import IMAGES_ATTR, PRESENCE_ARRAY, images_attribute, images_rendering, rendered_mask
 from synthcal.store.shards import ShardLayout, read_rows, write_shard
 from synthcal.store.splits import source_store_path
@@ -38,7 +47,7 @@ def used_indices(group: zarr.Group) -> np.ndarray:
     parts = [np.zeros(0, np.int64)]
     for seed in drawn_seeds(group):
         seed_group = group_at(group, f"splits/seed-{seed}")
-        parts += [np.asarray(array_at(seed_group, name)[:], np.int64) for name in SPLIT_NAMES if name in seed_group]
+        parts += [np.asarray(array_at(seed_group, name)[:], np.int64) for name in STORED_SPLITS if name in seed_group]
     return np.unique(np.concatenate(parts))
 
 

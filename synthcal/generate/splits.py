@@ -7,6 +7,11 @@ the pool with ``SeedSequence(pool_seed, spawn_key=(2, s))`` — a stream indepen
 of the pool's cameras ``(0,)`` and of the per-sample appearance ``(1, i)``. A dataset
 of given poses (``worldcup2014``) has fixed train/test sets, the same for every seed.
 
+**Validation.** A fourth set, drawn *after* the three from what they leave, with its
+own stream ``SeedSequence(pool_seed, spawn_key=(5, s))`` (``(4, i)`` is the grid's):
+the three are exactly what they were before validation sets existed, so drawing a
+store's splits again adds ``validation`` and changes nothing else. Size 0: none.
+
 **Mixed dictionaries.** The ``K`` templates (``K`` = the dictionary size) come from
 the pools of the source datasets, an equal share from each (the first ``K mod n``
 sources give one more), drawn with ``SeedSequence(pool_seed, spawn_key=(3, s))``,
@@ -38,9 +43,9 @@ Example
 -------
 >>> import numpy as np
 >>> from synthcal.config import SplitSizes
->>> sets = draw_indices(100, SplitSizes(train=60, test=10, dictionary=20), pool_seed=0, split_seed=1)
->>> [len(sets[k]) for k in SPLIT_NAMES], len(np.unique(np.concatenate(list(sets.values()))))
-([60, 10, 20], 90)
+>>> sets = draw_indices(100, SplitSizes(train=60, test=10, dictionary=20, validation=5), pool_seed=0, split_seed=1)
+>>> [len(sets[k]) for k in sets], len(np.unique(np.concatenate(list(sets.values()))))
+([60, 10, 20, 5], 95)
 """
 
 from __future__ import annotations
@@ -64,6 +69,7 @@ from synthcal.store.format import open_store
 from synthcal.store.splits import (
     LAYOUT_VERSION,
     SPLIT_NAMES,
+    VALIDATION,
     SplitError,
     open_source,
     source_store_path,
@@ -82,14 +88,15 @@ _HOMOGRAPHY_FRAME = "source: each template's homography maps its source scene's 
 
 
 def split_sizes(base: SplitSizes, **overrides: int) -> SplitSizes:
-    """``base`` with some sizes replaced (``train=``, ``test=``, ``dictionary=``), each ≥ 1.
+    """``base`` with some sizes replaced (``train=``, ``test=``, ``dictionary=``: ≥ 1; ``validation=``: ≥ 0).
 
     Raises:
-        SplitError: an unknown split or a size below 1 (named ``splits.<name>``).
+        SplitError: an unknown split or a size below its minimum (named ``splits.<name>``).
     """
     for name, value in overrides.items():
-        if name not in SPLIT_NAMES or value < 1:
-            raise SplitError(f"splits.{name}: a split size must be an integer ≥ 1 (value {value!r})")
+        least = 0 if name == VALIDATION else 1
+        if name not in (*SPLIT_NAMES, VALIDATION) or value < least:
+            raise SplitError(f"splits.{name}: a split size must be an integer ≥ {least} (value {value!r})")
     return SplitSizes(**{**base.model_dump(), **overrides})
 
 
@@ -112,7 +119,8 @@ def draw_indices(
         own_dictionary: draw a ``dictionary`` from the pool too.
 
     Returns:
-        ``train``, ``test`` (and ``dictionary``) as ascending (n,) int64 arrays.
+        ``train``, ``test`` (and ``dictionary``, and ``validation`` when its size is
+        > 0) as ascending (n,) int64 arrays.
 
     Raises:
         ValueError: the sizes add up to more than N (the caller names the store).
@@ -137,7 +145,21 @@ def draw_indices(
     # not strict: with nothing to draw (fixed train/test, no own dictionary) np.split still gives one empty part
     for name, part in zip(drawn_names, np.split(chosen, np.cumsum(counts)[:-1]), strict=False):
         out[name] = np.sort(part)
-    return {name: out[name] for name in names}
+    sets = {name: out[name] for name in names}
+    if sizes.validation:
+        sets[VALIDATION] = _draw_validation(pool_size, sizes.validation, pool_seed, split_seed, sets)
+    return sets
+
+
+def _draw_validation(pool_size: int, count: int, pool_seed: int, split_seed: int,
+                     taken: dict[str, np.ndarray]) -> np.ndarray:
+    """(count,) ascending int64 pool indices outside every set of ``taken``, from their own stream."""
+    free = np.setdiff1d(np.arange(pool_size, dtype=np.int64), np.concatenate(list(taken.values())))
+    if count > len(free):
+        raise ValueError(f"validation {count} samples asked for, but only {len(free)} of N = {pool_size} are "
+                         f"left outside {'/'.join(taken)} (set splits.validation, or `synthcal split --validation`)")
+    rng = np.random.default_rng(np.random.SeedSequence(pool_seed, spawn_key=(5, split_seed)))
+    return np.sort(free[rng.choice(len(free), size=count, replace=False)])
 
 
 def draw_mixed(
@@ -290,8 +312,8 @@ def _draw_locked(store: Path, seeds: Sequence[int] | None, sizes: SplitSizes | N
     try:
         sets = {seed: draw_indices(pool_size, sizes, pool_seed, seed, fixed, spec.own_dictionary) for seed in seeds}
     except ValueError as exc:
-        raise SplitError(f"{store}: splits {sizes.train}/{sizes.test}/{sizes.dictionary} (train/test/dictionary) "
-                         f"do not fit: {exc}") from None
+        raise SplitError(f"{store}: splits {sizes.train}/{sizes.test}/{sizes.dictionary}/{sizes.validation} "
+                         f"(train/test/dictionary/validation) do not fit: {exc}") from None
     note, hashes, mixed_arrays = _plan_mixed(store, attrs, sources, mixed, sizes.dictionary, seeds)
 
     drawn, unchanged = [], []
@@ -339,9 +361,10 @@ class SplitsResized(UserWarning):
     """A seed's splits were replaced by sets of other sizes (results on the old ones no longer match)."""
 
 
-def _sizes_text(recipe: dict[str, Any]) -> str:
-    """``train 24, test 8, dictionary 12`` (and the mixed dictionary's size) of a recorded recipe."""
-    sizes = dict(recipe.get("sizes") or {})
+def _sizes_text(recipe: dict[str, Any], only: Sequence[str] | None = None) -> str:
+    """``train 24, test 8, dictionary 12`` (and the mixed dictionary's size) of a recorded recipe
+    (of the splits ``only`` names, if given)."""
+    sizes = {k: v for k, v in (recipe.get("sizes") or {}).items() if only is None or k in only}
     if recipe.get("mixed_size"):
         sizes["mixed dictionary"] = recipe["mixed_size"]
     return ", ".join(f"{name} {size}" for name, size in sizes.items())
@@ -351,7 +374,9 @@ def _warn_if_resized(store: Path, seed: int, recorded: dict[str, Any] | None, re
     """Warn when a seed's existing splits are about to be replaced by sets of other sizes."""
     if recorded is None:
         return
-    before, after = _sizes_text(recorded), _sizes_text(recipe)
+    # a validation set added beside unchanged ones leaves every earlier result valid
+    kept = [*(recorded.get("sizes") or {})]
+    before, after = _sizes_text(recorded, kept), _sizes_text(recipe, kept)
     if before != after:
         warnings.warn(SplitsResized(f"{store}: seed {seed}: replacing its splits ({before}) with {after}; results "
                                     f"computed on the old splits no longer match them"), stacklevel=4)

@@ -38,6 +38,8 @@ from synthcal.store.lock import lock_path, store_lock
 from synthcal.store.manifest import MANIFEST_FILE, read_manifest, resealing, write_manifest
 from synthcal.store.splits import (
     SPLIT_NAMES,
+    STORED_SPLITS,
+    VALIDATION,
     MixedDictionary,
     SplitError,
     drawn_seeds,
@@ -78,6 +80,8 @@ __all__ = [
     "software_versions",
     "write_samples",
     "SPLIT_NAMES",
+    "STORED_SPLITS",
+    "VALIDATION",
     "MixedDictionary",
     "SplitError",
     "drawn_seeds",

@@ -7,6 +7,7 @@ Layout (inside the dataset's store)::
     splits/seed-<s>/train                     (n_train,) int64   pool indices, ascending
     splits/seed-<s>/test                      (n_test,)  int64
     splits/seed-<s>/dictionary                (n_dict,)  int64   absent without an own dictionary
+    splits/seed-<s>/validation                (n_val,)   int64   absent when its size is 0 or drawn before it existed
     splits/seed-<s>/mixed_dictionary/         group, attrs {"sources", "stores", "source_config_hash",
                                               "homography_frame"}; present when the dataset has sources
     splits/seed-<s>/mixed_dictionary/source   (K,) int64   position in the ``sources`` attribute list
@@ -28,6 +29,8 @@ from synthcal.store.format import StoreError, array_at, attributes, group_at, op
 
 __all__ = [
     "SPLIT_NAMES",
+    "VALIDATION",
+    "STORED_SPLITS",
     "LAYOUT_VERSION",
     "SplitError",
     "MixedDictionary",
@@ -42,7 +45,10 @@ __all__ = [
     "resolve_mixed_dictionary",
 ]
 
+# The three drawn together (one stream); validation comes after them, from its own.
 SPLIT_NAMES = ("train", "test", "dictionary")
+VALIDATION = "validation"
+STORED_SPLITS = (*SPLIT_NAMES, VALIDATION)
 LAYOUT_VERSION = "synthcal-splits/1"
 
 
@@ -108,7 +114,7 @@ def read_split_indices(store: str | Path, split: str, seed: int, group: zarr.Gro
 
     Args:
         store: the store.
-        split: ``train``, ``test`` or ``dictionary``.
+        split: ``train``, ``test``, ``dictionary`` or ``validation``.
         seed: the split seed.
         group: ``store`` as the caller opened it (:func:`~synthcal.store.open_store`): saves
             opening it and checking its manifest again.
@@ -117,12 +123,17 @@ def read_split_indices(store: str | Path, split: str, seed: int, group: zarr.Gro
         (n,) int64 ascending indices into the store's pool.
 
     Raises:
-        SplitError: unknown split or seed, or a dataset without an own dictionary.
+        SplitError: unknown split or seed, a dataset without an own dictionary, or
+            no validation set (drawn before it existed, or of size 0).
     """
     store = Path(store)
-    if split not in SPLIT_NAMES:
-        raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(SPLIT_NAMES)}")
+    if split not in STORED_SPLITS:
+        raise SplitError(f"{store}: unknown split {split!r}; known: {', '.join(STORED_SPLITS)}")
     seed_group = _seed_group(open_store(store) if group is None else group, store, seed)
+    if split == VALIDATION and split not in seed_group:
+        raise SplitError(f"{store}: splits/seed-{seed}/validation: no validation set (drawn before validation "
+                         f"sets existed, or splits.validation is 0): draw it with "
+                         f"`synthcal split {store} --validation N`")
     if split not in seed_group:
         raise SplitError(f"{store}: splits/seed-{seed}/{split}: dataset has no own {split} "
                          f"(its dictionary comes from other datasets: load it as the mixed dictionary)")
@@ -130,14 +141,15 @@ def read_split_indices(store: str | Path, split: str, seed: int, group: zarr.Gro
 
 
 def pool_dictionary_indices(store: str | Path, seed: int, group: zarr.Group | None = None) -> np.ndarray:
-    """The pool dictionary of a seed: every pool index in neither its train nor its test split.
+    """The pool dictionary of a seed: every pool index in neither its train, test nor validation split.
 
     The whole stored splits are left out (not a profile's capped prefix of them), so no
-    test or train sample is ever a template, whatever the caps. ``group``: as in
-    :func:`read_split_indices`.
+    test, train or validation sample is ever a template, whatever the caps (a
+    validation image with its own camera in the dictionary would flatter selection).
+    ``group``: as in :func:`read_split_indices`.
 
     Returns:
-        (N − n_train − n_test,) int64 ascending pool indices.
+        (N − n_train − n_test − n_validation,) int64 ascending pool indices.
 
     Raises:
         SplitError: an unknown seed.
@@ -145,8 +157,10 @@ def pool_dictionary_indices(store: str | Path, seed: int, group: zarr.Group | No
     store = Path(store)
     group = open_store(store) if group is None else group
     keep = np.ones(int(attributes(group)["N"]), bool)
-    for split in ("train", "test"):
-        keep[read_split_indices(store, split, seed, group)] = False
+    seed_group = _seed_group(group, store, seed)
+    for split in ("train", "test", VALIDATION):
+        if split in seed_group:  # validation: absent in splits drawn before it existed
+            keep[np.asarray(array_at(seed_group, split)[:])] = False
     return np.flatnonzero(keep).astype(np.int64)
 
 

@@ -21,7 +21,9 @@ from synthcal.training.stages import (
     PAPER_END_TO_END_EPOCHS,
     WARP_LOSS_NAMES,
     ClassMapLogits,
+    StnExamples,
     TrainingData,
+    best_epoch,
     composite_model,
     embed_templates,
     end_to_end_stage,
@@ -34,6 +36,7 @@ from synthcal.training.stages import (
     train_siamese,
     train_stn,
     train_unet,
+    validation_loss,
 )
 
 __all__ = [
@@ -58,6 +61,9 @@ __all__ = [
     "train_unet",
     "train_siamese",
     "train_stn",
+    "StnExamples",
+    "validation_loss",
+    "best_epoch",
     "end_to_end_stage",
     "train_end_to_end",
     "estimate",

@@ -20,6 +20,9 @@ The stages
   maps it reads (true maps, or a frozen UNet's in eval mode) do not change while
   the STN trains, so the retrieval is computed once, before the first epoch:
   re-embedding the dictionary every epoch would give the same templates.
+  With a validation split and a ``patience`` (:func:`validation_loss`), the STN is
+  scored on it after every epoch, the best epoch's weights are kept and training
+  stops after ``patience`` epochs without a better score.
 * :func:`train_end_to_end` — :meth:`CompositeModel.training_loss` under the warm-up
   schedule scaled to the profile's epoch count (:func:`end_to_end_stage`); its
   STN reads what the current joint embedding retrieves (dictionary re-embedded
@@ -44,7 +47,7 @@ Caching: :mod:`synthcal.training.cache`.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import cast
 
@@ -86,6 +89,8 @@ __all__ = [
     "STN_CACHE_BYTES",
     "StnExamples",
     "train_stn",
+    "validation_loss",
+    "best_epoch",
     "end_to_end_stage",
     "train_end_to_end",
     "estimate",
@@ -380,16 +385,61 @@ def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | Non
     return siamese.eval()
 
 
+@torch.no_grad()
+def validation_loss(stn: nn.Module | None, examples: StnExamples, template_homographies: Tensor,
+                    criterion: Callable[[Tensor, Tensor], Tensor], batch_size: int = 256) -> float:
+    """Mean ``L_warp`` of the STN's estimates over held-out items, in eval mode (then back).
+
+    Args:
+        stn: the STN (None: no refinement, the templates' homographies themselves).
+        examples: the items (validation maps ⊕ the template the Siamese retrieves for
+            each, as at test time) and their true views.
+        template_homographies: (K, 3, 3) working-resolution ``A H_k`` of each item's template.
+        criterion: the warp loss (a batch mean).
+        batch_size: items at a time.
+
+    Returns:
+        the item-weighted mean loss.
+    """
+    was_training = stn is not None and stn.training
+    if stn is not None:
+        stn.eval()
+    total, count = 0.0, 0
+    for index in torch.arange(len(examples.templates)).split(batch_size):
+        inputs, target = examples.batch(index)
+        H = template_homographies[index.to(examples.device)]
+        if stn is not None:
+            H = compose_homography(stn(inputs), H, examples.data.work_size)
+        total += criterion(examples.warp(H), target).item() * len(index)
+        count += len(index)
+    if stn is not None:
+        stn.train(was_training)
+    return total / max(count, 1)
+
+
+def best_epoch(scores: Sequence[float]) -> int:
+    """0-based epoch of the lowest validation score, the later one on a tie (as :func:`train_stn` keeps).
+
+    >>> best_epoch([3.0, 1.0, 2.0, 1.0, 4.0])
+    3
+    """
+    return len(scores) - 1 - int(np.argmin(np.asarray(scores)[::-1]))
+
+
 def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: Loss, epochs: int,
               batch_size: int, lr: float, device: torch.device, seed: int = 0, progress: bool = False,
               log: list[float] | None = None, templates: Tensor | None = None,
-              class_reduction: ClassReduction = "sum") -> nn.Module:
+              class_reduction: ClassReduction = "sum", validate: Callable[[nn.Module], float] | None = None,
+              patience: int | None = None, scores: list[float] | None = None) -> nn.Module:
     """``L_warp`` training of an STN on (input map ⊕ template). Returns it, trained.
 
     ``templates``: (K,) the template of each train item (:func:`stn_templates`;
     None: the ground-truth ones, ``data.match``). ``class_reduction``: of the
     MSE-based losses. What does not change from batch to batch — each item's
     input and target view — is made once, before the first epoch (:class:`StnExamples`).
+    ``validate`` (e.g. :func:`validation_loss` on the validation split) scores the
+    STN after each epoch into ``scores``: the weights of the best epoch are returned,
+    and training stops after ``patience`` epochs without a better score (None: all).
     """
     torch.manual_seed(seed)
     generator = torch.Generator().manual_seed(seed)
@@ -399,8 +449,10 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: 
     chosen = data.match if templates is None else templates
     examples = StnExamples(data, chosen, unet, device)
     template_homographies = data.template_homographies[chosen].to(device)
+    scores = [] if scores is None else scores
+    best: dict[str, Tensor] | None = None
     bar = _epochs(epochs, f"stn {loss}", progress)
-    for _ in bar:
+    for epoch in bar:
         losses: list[float] = []
         for index in _batches(len(data), batch_size, generator):
             inputs, target = examples.batch(index)
@@ -409,6 +461,15 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: 
             losses.append(_step(optimiser, value))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
+        if validate is None:
+            continue
+        scores.append(validate(stn))
+        if scores[-1] <= min(scores):  # ties keep the later (longer-trained) weights
+            best = {name: value.detach().clone() for name, value in stn.state_dict().items()}
+        if patience is not None and epoch - best_epoch(scores) >= patience:
+            break
+    if best is not None:
+        stn.load_state_dict(best)
     return stn.eval()
 
 

@@ -21,20 +21,20 @@ SMOKE_TRAINING = {"batch_size": 8, "siamese_width": 4, "embedding_dim": 8, "siam
 
 @pytest.fixture(scope="module")
 def store(smoke_stores, tmp_path_factory) -> Path:
-    """intersection-2 at smoke size (48 samples), seeds 0 and 1 drawn (24 train, 8 test each)."""
+    """intersection-2 at smoke size (48 samples), seeds 0 and 1 drawn (24 train, 8 test, 4 validation each)."""
     path = smoke_stores.copy(["intersection-2"], tmp_path_factory.mktemp("pool"))["intersection-2"]
     draw_splits(path, seeds=[0, 1])
     return path
 
 
-def test_the_pool_dictionary_is_every_sample_outside_train_and_test(store):
+def test_the_pool_dictionary_is_every_sample_outside_train_test_and_validation(store):
     size = int(attributes(open_store(store))["N"])
     for seed in (0, 1):
         pool = load_pool_dictionary(store, seed)
-        train, test = read_split_indices(store, "train", seed), read_split_indices(store, "test", seed)
-        expected = sorted(set(range(size)) - set(train.tolist()) - set(test.tolist()))
+        held = [read_split_indices(store, split, seed) for split in ("train", "test", "validation")]
+        expected = sorted(set(range(size)) - set(np.concatenate(held).tolist()))
         assert pool.indices.tolist() == expected  # exactly the complement, ascending
-        assert len(pool) == size - len(train) - len(test) == 16
+        assert len(pool) == size - sum(map(len, held)) == 12
         assert pool.pool and not pool.mixed and pool.split == "dictionary" and pool.seed == seed
     # The stored dictionary split is a subset of the pool dictionary (it avoids train and test too).
     assert set(read_split_indices(store, "dictionary", 0)) <= set(load_pool_dictionary(store, 0).indices)
@@ -54,7 +54,7 @@ def test_lazy_rows_read_what_the_store_holds_and_nothing_before(store):
     np.testing.assert_array_equal(pool.semantics[-1], direct["semantic"][-1])
     np.testing.assert_array_equal(pool.images[2, 1:3], direct["image"][2, 1:3])
     batches = list(pool.semantics.batches(5))
-    assert [start for start, _ in batches] == [0, 5, 10, 15]
+    assert [start for start, _ in batches] == [0, 5, 10]
     np.testing.assert_array_equal(np.concatenate([rows for _, rows in batches]), direct["semantic"])
     assert not pool.images[0:2].flags.writeable  # read-only, as every array the harness hands out
     again = pickle.loads(pickle.dumps(pool))  # holds no open store: pickles for DataLoader workers

@@ -436,20 +436,21 @@ def test_bench_searches_the_whole_pool_with_dictionary_pool(data, tmp_path, caps
     assert bench(data, results, "template", f"{RETRY}:SizeRecordingEstimator", seeds="0",
                  extra=("--dictionary", "pool")) == 0
     out = capsys.readouterr().out
-    # 48 samples, 24 train and 8 test: the other 16 are the templates, never capped by the profile (12).
-    assert "intersection-1 (pool) (seeds 0): train 24 of 24, test 8 of 8, dictionary 16 of 16" in out
-    assert "whole pool outside the seed's train and test sets" in out  # the table's caption says so
+    # 48 samples, 24 train, 8 test, 4 validation: the other 12 are the templates, never capped by the profile.
+    assert "intersection-1 (pool) (seeds 0): train 24 of 24, test 8 of 8, dictionary 12 of 12" in out
+    assert "whole pool outside the seed's train, test and" in out  # the table's caption says so
     frame = collect_results(results)
     assert (frame["status"] == "ok").all() and set(frame["dataset"]) == {"intersection-1 (pool)"}
     assert (frame["dictionary"] == "pool").all() and (frame["iou"] > 0).all()
     pool = set(range(48)) - set(read_split_indices(data / "intersection-1.zarr", "train", 0)) \
-        - set(read_split_indices(data / "intersection-1.zarr", "test", 0))
+        - set(read_split_indices(data / "intersection-1.zarr", "test", 0)) \
+        - set(read_split_indices(data / "intersection-1.zarr", "validation", 0))
     for run_id in frame["run_id"]:
         record = record_of(results, run_id)
         assert "_pool_" in run_id and record["run"]["dictionary"] == "pool"
-        assert record["sizes"]["dictionary"] == len(pool) == 16
+        assert record["sizes"]["dictionary"] == len(pool) == 12
     recorder = frame[frame["model"] == "SizeRecordingEstimator"]["run_id"].iloc[0]
-    assert record_of(results, recorder)["history"]["dictionary"] == 16  # what the plug-in was handed
+    assert record_of(results, recorder)["history"]["dictionary"] == 12  # what the plug-in was handed
     # The dictionary is part of a run's identity; split runs keep the ids they had before it existed.
     split = expand_runs(data, ["intersection-1"], ["template"], [0], "smoke", device="cpu")[0]
     whole = expand_runs(data, ["intersection-1"], ["template"], [0], "smoke", device="cpu", dictionary="pool")[0]

@@ -1,6 +1,7 @@
 """Per-seed splits and mixed dictionaries inside smoke stores (SPEC §6)."""
 
 import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,8 @@ from synthcal.cli import main, parse_seeds
 from synthcal.config import SplitSizes, load_config
 from synthcal.generate.pipeline import generate_dataset
 from synthcal.generate.splits import SplitsResized, draw_indices, draw_mixed, draw_splits
-from synthcal.store import open_store, read_samples, write_manifest
+from synthcal.store import open_store, read_manifest, read_samples, write_manifest
+from synthcal.store.manifest import check_files
 from synthcal.store.splits import (
     SPLIT_NAMES,
     SplitError,
@@ -75,7 +77,7 @@ def test_split_stream_is_independent_of_the_pool_seed_stream():
 def test_redraw_with_other_sizes_replaces_atomically(stores, tmp_path):
     store = tmp_path / "intersection-3.zarr"
     shutil.copytree(stores["intersection-3"], store)
-    with pytest.warns(SplitsResized, match=r"seed 1: replacing its splits \(train 24, test 8, dictionary 12\)"):
+    with pytest.warns(SplitsResized, match=r"seed 1: replacing its splits \(train 24, test 8, dictionary 12, validation 4\)"):
         result = draw_splits(store, seeds=[1], sizes=SplitSizes(train=30, test=6, dictionary=6))
     assert result.drawn == (1,)
     assert len(read_split_indices(store, "train", 1)) == 30
@@ -128,8 +130,8 @@ def test_unknown_seed_and_split(stores):
     store = stores["intersection-2"]
     with pytest.raises(SplitError, match=r"splits/seed-9.*seeds available: 0, 1, 2, 3, 4"):
         read_split_indices(store, "train", 9)
-    with pytest.raises(SplitError, match=r"intersection-2.zarr: unknown split 'validation'"):
-        read_split_indices(store, "validation", 0)
+    with pytest.raises(SplitError, match=r"intersection-2.zarr: unknown split 'holdout'"):
+        read_split_indices(store, "holdout", 0)
     with pytest.raises(SplitError, match="intersection-2.zarr.*no mixed dictionary"):
         read_mixed_dictionary(store, 0)
     with pytest.raises(SplitError, match=r"seeds must be integers ≥ 0 \(value \[-1\]\)"):
@@ -143,7 +145,7 @@ def test_missing_source_store(stores, tmp_path):
                                          r"intersection-1.zarr: no synthcal store"):
         draw_splits(alone, mixed=True)
     # The default draws the own splits and says why the mixed dictionary is missing.
-    with pytest.warns(SplitsResized, match="mixed dictionary 12\\) with train 24, test 8, dictionary 12;"):
+    with pytest.warns(SplitsResized, match="mixed dictionary 12\\) with train 24, test 8, dictionary 12, validation 4;"):
         result = draw_splits(alone, seeds=[0])
     assert "intersection-1.zarr" in result.note
     # A copy made with its mixed dictionary cannot resolve it without the sources.
@@ -184,3 +186,39 @@ def test_cli_split_and_generate_splits(stores, tmp_path, capsys):
     assert main(["generate", "intersection-2", "--profile", "smoke", "--out", str(out), "--splits", "--quiet",
                  "--config", str(ROOT / "datasets.yaml")]) == 0
     assert drawn_seeds(open_store(out / "intersection-2.zarr")) == SEEDS
+
+
+def test_validation_is_disjoint_and_leaves_the_other_draws_as_they_were():
+    """The validation set avoids the other three, and adding it changes none of them."""
+    pool, seed = 200, 3
+    without = draw_indices(pool, SplitSizes(train=100, test=30, dictionary=40), pool_seed=7, split_seed=seed)
+    sets = draw_indices(pool, SplitSizes(train=100, test=30, dictionary=40, validation=20), pool_seed=7,
+                        split_seed=seed)
+    assert list(sets) == [*SPLIT_NAMES, "validation"] and "validation" not in without
+    for name in SPLIT_NAMES:
+        np.testing.assert_array_equal(sets[name], without[name])
+    assert len(sets["validation"]) == 20
+    assert len(np.unique(np.concatenate(list(sets.values())))) == 190  # four disjoint sets
+    other = draw_indices(pool, SplitSizes(train=100, test=30, dictionary=40, validation=20), pool_seed=7,
+                         split_seed=seed + 1)
+    assert not np.array_equal(other["validation"], sets["validation"])
+    with pytest.raises(ValueError, match=r"validation 31 samples asked for, but only 30 of N = 200 are left"):
+        draw_indices(pool, SplitSizes(train=100, test=30, dictionary=40, validation=31), pool_seed=7, split_seed=0)
+
+
+def test_drawing_again_adds_validation_to_a_store_drawn_without_it(smoke_stores, tmp_path):
+    store = smoke_stores.copy(["intersection-1"], tmp_path)["intersection-1"]
+    draw_splits(store, seeds=[0], sizes=SplitSizes(train=24, test=8, dictionary=12))
+    before = {name: read_split_indices(store, name, 0) for name in SPLIT_NAMES}
+    with pytest.raises(SplitError, match=r"splits/seed-0/validation: no validation set .*synthcal split .*--validation"):
+        read_split_indices(store, "validation", 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SplitsResized)  # adding a validation set resizes nothing
+        result = draw_splits(store, seeds=[0], sizes=SplitSizes(train=24, test=8, dictionary=12, validation=4))
+    assert result.drawn == (0,)
+    for name in SPLIT_NAMES:
+        np.testing.assert_array_equal(read_split_indices(store, name, 0), before[name])
+    validation = read_split_indices(store, "validation", 0)
+    assert len(validation) == 4 and not set(validation) & set(np.concatenate(list(before.values())))
+    manifest = read_manifest(store)  # resealed by draw_splits: the new array is under the checksums
+    assert "splits/seed-0/validation/c/0" in manifest.files and not check_files(store, manifest, full=True)

@@ -116,7 +116,7 @@ def test_a_deleted_split_chunk_is_refused_everywhere(store, tmp_path, capsys):
 
 
 def test_a_split_array_added_by_hand_is_refused(store, capsys):
-    planted = store / "splits/seed-0/validation"
+    planted = store / "splits/seed-0/holdout"
     shutil.copytree(store / "splits/seed-0/test", planted)
     assert_one_line(*run_cli(capsys, "info", str(store)), f"{planted / 'zarr.json'}: a file the manifest does not list")
 

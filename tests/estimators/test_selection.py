@@ -1,0 +1,133 @@
+"""Training choices read the validation split only: early stopping, learning-rate selection, the
+shared Siamese per rate, and a harness run whose test split is noise trains exactly the same."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zarr
+
+from synthcal.config import load_config
+from synthcal.data import load_split, load_splits
+from synthcal.estimators import load_estimator
+from synthcal.eval.harness import collect_results, execute_run, expand_runs, read_record, run_folder, table_runs
+from synthcal.eval.tables import format_table
+from synthcal.generate.splits import draw_splits
+from synthcal.store import read_split_indices, write_manifest
+from synthcal.training import best_epoch
+
+ROOT = Path(__file__).resolve().parents[2]
+RATES = [1e-4, 3e-3]
+
+
+@pytest.fixture(scope="module")
+def store(smoke_stores, tmp_path_factory) -> Path:
+    path = smoke_stores.copy(["intersection-1"], tmp_path_factory.mktemp("select"))["intersection-1"]
+    draw_splits(path, seeds=[0])
+    return path
+
+
+@pytest.fixture(scope="module")
+def splits(store):
+    return {**load_splits(store, 0), "validation": load_split(store, "validation", 0)}
+
+
+@pytest.fixture(scope="module")
+def settings():
+    return {**load_config(ROOT / "datasets.yaml").training("smoke").settings(), "stn_epochs": 4}
+
+
+def fit(splits, settings, name="proposed", **options):
+    estimator = load_estimator(name, settings=settings, device="cpu", segmentation="ground-truth", **options)
+    estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    return estimator
+
+
+def test_the_best_rate_on_validation_is_kept_and_each_siamese_is_trained_once(splits, settings, tmp_path):
+    grid = {**settings, "select": {"learning_rate": RATES}}
+    proposed = fit(splits, grid, cache_dir=tmp_path)
+    selection = proposed.selection
+    assert selection["split"] == "validation" and selection["grid"] == {"learning_rate": RATES}
+    scores = selection["scores"]["learning_rate"]
+    assert len(scores) == 2 and np.isfinite(scores).all() and scores[0] != scores[1]
+    chosen = RATES[int(np.argmin(scores))]
+    assert selection["chosen"] == {"learning_rate": chosen}
+    # One Siamese per rate, trained by the first model, loaded by the second.
+    assert proposed.trained_stages == ["siamese", "stn", "siamese", "stn"]
+    baseline = fit(splits, grid, name="baseline", cache_dir=tmp_path)
+    assert baseline.trained_stages == ["stn", "stn"]
+    assert len(list((tmp_path / "siamese").glob("*.pt"))) == 2
+    # The kept model is the one fitted at the chosen rate alone: same score, same estimates.
+    alone = fit(splits, {**settings, "learning_rate": chosen}, cache_dir=tmp_path)
+    assert alone.selection is None
+    assert alone._validation_score() == pytest.approx(min(scores), rel=1e-6)
+    test = splits["test"].semantics
+    np.testing.assert_allclose(alone.predict_semantic(test), proposed.predict_semantic(test), rtol=1e-6)
+
+
+def test_patience_keeps_the_best_validation_epoch(splits, settings):
+    estimator = fit(splits, {**settings, "stn_epochs": 8, "learning_rate": 3e-3, "patience": 2})
+    scores = estimator.history["stn-validation"]
+    assert 1 <= len(scores) <= 8 and len(estimator.history["stn"]) == len(scores)
+    stopped_early = len(scores) < 8
+    assert not stopped_early or len(scores) - 1 - best_epoch(scores) == 2
+    # The weights kept score the best epoch's validation loss, not the last one's.
+    assert estimator._validation_score() == pytest.approx(min(scores), rel=1e-6)
+
+
+def test_selection_needs_a_validation_split(splits, settings):
+    estimator = load_estimator("proposed", settings={**settings, "patience": 3}, device="cpu",
+                               segmentation="ground-truth")
+    with pytest.raises(ValueError, match=r"settings.patience: needs a validation split.*--validation"):
+        estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene)
+
+
+def _noise_test_split(store: Path) -> None:
+    """Overwrite the test split's images and class maps with noise, and reseal the manifest."""
+    rng = np.random.default_rng(0)
+    group = zarr.open_group(zarr.storage.LocalStore(store), mode="r+")
+    for index in read_split_indices(store, "test", 0).tolist():
+        image, semantic = group["image"], group["semantic"]
+        image[index] = rng.integers(0, 256, image.shape[1:], dtype=np.uint8)
+        semantic[index] = rng.integers(0, 4, semantic.shape[1:], dtype=np.uint8)
+    write_manifest(store)
+
+
+def test_test_data_is_never_read_while_training_or_selecting(smoke_stores, tmp_path):
+    clean = smoke_stores.copy(["intersection-1"], tmp_path / "clean")["intersection-1"]
+    noisy = smoke_stores.copy(["intersection-1"], tmp_path / "noisy")["intersection-1"]
+    for path in (clean, noisy):
+        draw_splits(path, seeds=[0])
+    _noise_test_split(noisy)
+    assert not np.array_equal(load_split(clean, "test", 0).semantics, load_split(noisy, "test", 0).semantics)
+    settings = {**load_config(ROOT / "datasets.yaml").training("smoke").settings(), "stn_epochs": 3,
+                "patience": 2, "select": {"learning_rate": RATES}}
+    records = []
+    for path in (clean, noisy):
+        (run,) = expand_runs(path.parent, ["intersection-1"], ["proposed"], [0], "smoke", settings,
+                             segmentations=["ground-truth"], device="cpu")
+        results = path.parent / "results"
+        results.mkdir()
+        execute_run(run, results)
+        records.append(read_record(run_folder(results, run) / "run.json"))
+    first, second = records
+    assert first["status"] == second["status"] == "ok"
+    # Bit-identical training losses, validation scores and choice: the same weights were trained and kept.
+    assert first["history"] == second["history"] and first["selection"] == second["selection"]
+    assert first["selection"]["split"] == "validation" and "stn-validation" in first["history"]
+    assert first["summary"] != second["summary"]  # while the test scores did read the noise
+    # The table's caption says what validation chose, and the budget how.
+    frame = collect_results(clean.parent / "results")
+    rate = first["selection"]["chosen"]["learning_rate"]
+    epochs = first["selection"]["chosen"]["stn_epochs"]
+    assert frame.loc[0, "chosen"] == f"lr {rate:g}, STN {epochs} epochs"
+    caption = " ".join(format_table(table_runs(frame), "models").split())  # unwrapped
+    assert f"chosen on validation: proposed lr {rate:g}, STN {epochs} epochs (×1)" in caption
+    assert "learning rate chosen on validation from 0.0001, 0.003" in caption
+
+
+def test_the_validation_split_goes_only_to_a_fit_that_takes_it():
+    from synthcal.eval.isolation import _takes_validation
+
+    assert _takes_validation(load_estimator("proposed")) and _takes_validation(load_estimator("retrieved"))
+    assert not _takes_validation(load_estimator("oracle-template"))  # takes settings, chooses nothing

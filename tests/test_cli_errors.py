@@ -284,8 +284,8 @@ def test_split_warns_when_it_replaces_splits_of_other_sizes(smoke_stores, tmp_pa
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the same sizes: nothing replaced, no warning
         assert main(["split", str(store), "--seeds", "0,1"]) == 0
-    expected = (f"{store}: seed 1: replacing its splits (train 24, test 8, dictionary 12) with train 10, test 8, "
-                "dictionary 12; results computed on the old splits no longer match them")
+    expected = (f"{store}: seed 1: replacing its splits (train 24, test 8, dictionary 12, validation 4) with train 10, "
+                "test 8, dictionary 12, validation 4; results computed on the old splits no longer match them")
     with pytest.warns(SplitsResized) as caught:
         assert main(["split", str(store), "--seeds", "1", "--train", "10"]) == 0
     assert [str(w.message) for w in caught] == [expected]

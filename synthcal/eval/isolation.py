@@ -62,7 +62,7 @@ from synthcal.store import StoreError
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent
 
-__all__ = ["DEFAULT_TIMEOUT", "RunProcesses", "SweepStopped", "estimate_in_process", "estimate_isolated",
+__all__ = ["DEFAULT_TIMEOUT", "RunProcesses", "SweepStopped", "estimate_in_process", "estimate_isolated", "takes_validation",
            "load_run_split", "run_child",
            "write_text_atomic"]
 
@@ -129,7 +129,7 @@ def _reads_validation(run: Run) -> bool:
     return settings.get("patience") is not None or settings.get("select") is not None
 
 
-def _takes_validation(estimator: Any) -> bool:
+def takes_validation(estimator: Any) -> bool:
     """Whether ``fit`` takes the protocol's optional ``validation`` keyword (an estimator that
     takes training settings without choosing anything on held-out data need not)."""
     try:
@@ -212,7 +212,7 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
         name, started = "fit", time.perf_counter()
         stage(name)
         train = splits["train"]
-        if "validation" in splits and _takes_validation(estimator):  # what training choices read; never test
+        if "validation" in splits and takes_validation(estimator):  # what training choices read; never test
             cast(Any, estimator).fit(train, splits["dictionary"], scene, validation=splits["validation"])
         else:
             estimator.fit(train, splits["dictionary"], scene)

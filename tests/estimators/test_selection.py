@@ -127,7 +127,7 @@ def test_test_data_is_never_read_while_training_or_selecting(smoke_stores, tmp_p
 
 
 def test_the_validation_split_goes_only_to_a_fit_that_takes_it():
-    from synthcal.eval.isolation import _takes_validation
+    from synthcal.eval.isolation import takes_validation
 
-    assert _takes_validation(load_estimator("proposed")) and _takes_validation(load_estimator("retrieved"))
-    assert not _takes_validation(load_estimator("oracle-template"))  # takes settings, chooses nothing
+    assert takes_validation(load_estimator("proposed")) and takes_validation(load_estimator("retrieved"))
+    assert not takes_validation(load_estimator("oracle-template"))  # takes settings, chooses nothing

@@ -227,7 +227,7 @@ def test_generate_and_scene_from_a_yaml_entry(osm_file, tmp_path, capsys):
     assert (source["missing_nodes"], source["cut_ways"]) == (0, 0)  # the junction's ways are whole
     # The store's recorded configuration reads back: splits can be drawn from it.
     store = str(tmp_path / "out" / "my-junction.zarr")
-    assert main(["split", store, "--seeds", "0", "--train", "2", "--test", "2", "--dictionary", "2"]) == 0
+    assert main(["split", store, "--seeds", "0", "--train", "2", "--test", "2", "--dictionary", "2", "--validation", "0"]) == 0
     assert main(["scene", "my-junction", "-o", str(tmp_path / "scene.png"), "--config", str(config)]) == 0
     assert cv2.imread(str(tmp_path / "scene.png")) is not None
 

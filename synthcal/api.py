@@ -281,8 +281,7 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
     from synthcal.eval.harness import expand_runs, run_sweep
 
     loaded = load_config(config)
-    entry = loaded.config.profiles.get(profile) if profile is not None else None
-    limits = None if entry is None or entry.splits is None else entry.splits.model_dump()
+    limits = loaded.split_caps(profile)
     training = loaded.training(profile)
     runs = expand_runs(data, datasets, estimators, seeds, profile, training.settings(),
                        segmentations=(training.segmentation,), device=device, limits=limits,

@@ -578,12 +578,6 @@ class _UserError(ValueError):
     """A problem with the user's request, printed without a traceback."""
 
 
-def _bench_limits(config: LoadedConfig, profile: str | None) -> dict[str, int] | None:
-    """The profile's ``splits:`` as caps on the stored splits (None: no profile or none set)."""
-    entry = config.config.profiles.get(profile) if profile is not None else None
-    return None if entry is None or entry.splits is None else entry.splits.model_dump()
-
-
 def _cmd_bench(args: argparse.Namespace) -> int:
     """Exit 0 when every run is ok, 1 when any failed (each printed with its reason), 130 on Ctrl-C."""
     from synthcal.config import load_config
@@ -607,7 +601,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     estimators = merge_options(args.estimator, config.config.estimators, args.option)
     runs = expand_runs(args.data, args.datasets, estimators, parse_seeds(args.seeds), args.profile,
                        settings, args.training, args.loss, args.matching, segmentations,
-                       device=args.device, limits=_bench_limits(config, args.profile), dictionary=dictionary)
+                       device=args.device, limits=config.split_caps(args.profile), dictionary=dictionary)
     todo = runs if args.rerun else [run for run in runs if not is_finished(args.results, run)]
     print(f"bench: {counted(len(runs), 'run')}: {len(runs) - len(todo)} reused, {len(todo)} to run; "
           f"profile {args.profile or 'none (built-in training defaults)'}; using per seed:")

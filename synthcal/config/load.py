@@ -101,6 +101,15 @@ class LoadedConfig:
                               f"{did_you_mean(profile, self.config.profiles)}; known: {', '.join(self.config.profiles)}")
         return self.config.profiles[profile]
 
+    def split_caps(self, profile: str | None) -> dict[str, int] | None:
+        """A profile's ``splits:`` as caps on a store's drawn splits (None: no profile, or it sets none).
+
+        Raises:
+            ConfigError: unknown profile (:meth:`profile`).
+        """
+        splits = self.profile(profile).splits
+        return None if splits is None else splits.model_dump()
+
     def resolve(self, dataset: str, profile: str | None = None, pool_size: int | None = None) -> DatasetSpec:
         """The resolved spec of one dataset under a profile.
 

@@ -133,7 +133,6 @@ _tree_walk = Side(verge=3.0, walk=3.0, trees=True)
 _cycle = Side(verge=2.0, bike=2.2, walk=2.5)
 _cycle_trees = Side(verge=3.0, bike=2.2, walk=2.5, trees=True)
 _cycle2 = Side(verge=2.5, bike=3.0, walk=2.5)  # two-way cycle path
-_dual = {"lanes": 2, "median": 3.0, "left": _cycle, "right": _cycle}
 
 LAYOUTS: dict[str, Layout] = {
     "intersection-1": Layout(
@@ -182,7 +181,7 @@ LAYOUTS: dict[str, Layout] = {
         seed=1101),
     "intersection-1b": Layout(
         "intersection-1b", "intersection-1's crossing, two dual carriageways, cycle paths all round, 12 m corners",
-        legs=tuple(Leg(angle, **_dual) for angle in (0, 90, 180, 270)),
+        legs=tuple(Leg(angle, lanes=2, median=3.0, left=_cycle, right=_cycle) for angle in (0, 90, 180, 270)),
         sectors=("park", "buildings", "park", "buildings"), kerb_radius=12.0, zebras=False, textures="dry", cars=24,
         seed=1102),
     "intersection-1c": Layout(

@@ -36,14 +36,16 @@ def _cmd_scenes(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
     from synthcal.scenes import BUILTIN_SCENES
 
+    user = load_config(args.config).config.scenes
+    width = max(16, *map(len, BUILTIN_SCENES), *map(len, user))
     for name, description in BUILTIN_SCENES.items():
-        print(f"{name:16s} built in   {description}")
-    for name, scene in load_config(args.config).config.scenes.items():
+        print(f"{name:{width}s} built in   {description}")
+    for name, scene in user.items():
         if scene.osm is not None:
             lat, lon = scene.osm.center
-            print(f"{name:16s} osm        {scene.osm.file} around ({lat}, {lon}), © OpenStreetMap contributors")
+            print(f"{name:{width}s} osm        {scene.osm.file} around ({lat}, {lon}), © OpenStreetMap contributors")
         else:
-            print(f"{name:16s} user       {scene.image} + {scene.semantic}")
+            print(f"{name:{width}s} user       {scene.image} + {scene.semantic}")
 
 
 def _parse_pair(text: str, what: str) -> tuple[float, float]:
@@ -109,16 +111,19 @@ def _cmd_datasets(args: argparse.Namespace) -> None:
     from synthcal.config import load_config
 
     config = load_config(args.config)
-    print(f"{'DATASET':16s} generate and bench ({'profile ' + repr(args.profile) if args.profile else 'no profile'})")
-    for name in config.dataset_names:
-        print(f"{name:16s} {_describe_dataset(config, name, args.profile)}")
     mixed = config.config.mixed_dictionaries
+    labels = {target: f"mixed-{short}" if (short := target.removeprefix("intersection-")).isdigit()
+              else f"mixed-{target}" for target in mixed}
+    width = max(16, *map(len, config.dataset_names), *map(len, labels.values()))
+    print(f"{'DATASET':{width}s} generate and bench ({'profile ' + repr(args.profile) if args.profile else 'no profile'})")
+    for name in config.dataset_names:
+        print(f"{name:{width}s} {_describe_dataset(config, name, args.profile)}")
     if mixed:
-        print(f"\n{'LABEL':16s} bench only: a dataset's own train/test sets with a mixed dictionary")
+        print(f"\n{'LABEL':{width}s} bench only: a dataset's own train/test sets with a mixed dictionary")
     for target, sources in mixed.items():
-        short = target.removeprefix("intersection-")
-        label = f"mixed-{short}" if short.isdigit() else f"mixed-{target}"
-        print(f"{label:16s} {target}'s train/test sets; templates from {', '.join(sources)}")
+        pool = config.config.datasets[target].same_pool_as
+        owner = f"{target}'s (= {pool}'s)" if pool else f"{target}'s"
+        print(f"{labels[target]:{width}s} {owner} train/test sets; templates from {', '.join(sources)}")
 
 
 def _cmd_config_show(args: argparse.Namespace) -> None:
@@ -158,6 +163,8 @@ def _describe_dataset(config: LoadedConfig, name: str, profile: str | None) -> s
     else:
         cameras = f"{spec.pool_size:,} samples from grid {entry.grid!r}"
     source = f"; dictionary from {', '.join(spec.mixed_sources)}" if not spec.own_dictionary else ""
+    if entry.same_pool_as is not None:
+        source = f"; {entry.same_pool_as}'s pool and splits (same_pool_as)"
     return f"{kind} {entry.scene!r}, {cameras} at {spec.image_size[0]} × {spec.image_size[1]}{source}"
 
 
@@ -839,7 +846,7 @@ def _add_osm(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _add_osm_junctions(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from synthcal.config.vocabulary import BUILTIN_SCENE_NAMES
+    from synthcal.config.vocabulary import BUILTIN_LAYOUT_NAMES
 
     p = sub.add_parser("osm-junctions", help="list the road junctions of an OpenStreetMap extract as CSV (node, "
                                               "position, legs, bearings, road classes, cycleways)")
@@ -847,7 +854,7 @@ def _add_osm_junctions(sub: argparse._SubParsersAction[argparse.ArgumentParser])
     p.add_argument("--bbox", type=_parse_bbox, default=None, metavar="W,S,E,N",
                    help="only junctions inside this box (WGS84 degrees: west, south, east, north)")
     p.add_argument("--legs", type=int, default=None, help="only junctions with exactly this many road legs")
-    p.add_argument("--like", choices=[n for n in BUILTIN_SCENE_NAMES if n.startswith("intersection-")],
+    p.add_argument("--like", choices=BUILTIN_LAYOUT_NAMES,
                    help="rank by likeness to a built-in intersection: leg count, then leg bearings")
     p.add_argument("--csv", type=Path, required=True, help="the catalogue to write")
     p.add_argument("--datasets", type=int, default=0, metavar="K",

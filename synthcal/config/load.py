@@ -156,7 +156,10 @@ class LoadedConfig:
             mixed_sources=entry.dictionary_from or cfg.mixed_dictionaries.get(dataset, ()),
             own_dictionary=entry.dictionary_from is None,
             images=prof.images or entry.images or "all",
+            pool_name=entry.same_pool_as,
         )
+        if entry.same_pool_as is not None:
+            self._check_same_pool(dataset, spec, self.resolve(entry.same_pool_as, profile, pool_size))
         if spec.grid is None:
             return spec
         size = spec.grid.size()
@@ -190,6 +193,20 @@ class LoadedConfig:
         if entry is None or entry.dictionary_from:
             return "split"
         return prof.dictionary or entry.dictionary or "split"
+
+    def _check_same_pool(self, dataset: str, spec: DatasetSpec, other: DatasetSpec) -> None:
+        """A ``same_pool_as`` dataset resolves to its pool's dataset in everything but the name and mixed sources.
+
+        Raises:
+            ConfigError: a pool or split setting differs, naming it and both values.
+        """
+        ignored = {"name", "pool_name", "mixed_sources"}
+        mine, theirs = spec.model_dump(mode="json", exclude=ignored), other.model_dump(mode="json", exclude=ignored)
+        for key in mine:
+            if mine[key] != theirs[key]:
+                raise ConfigError(
+                    f"{self.origin('datasets', dataset)}: datasets.{dataset}.same_pool_as: {key} differs from "
+                    f"{other.name!r}'s ({brief(repr(theirs[key]), 60)}) (value {brief(repr(mine[key]), 60)})")
 
     def _grid_pool(self, dataset: str, entry: DatasetConfig, prof: ProfileConfig, pool_size: int | None) -> int:
         """Pool size of a grid dataset: ``pool_size`` if given, else the entry's capped by the profile."""
@@ -246,6 +263,12 @@ def _check_dataset_references(where: Where, config: Config, name: str, entry: Da
             f"{where(['mixed_dictionaries', name])}: mixed_dictionaries.{name}: the dataset already takes its "
             f"dictionary from datasets.{name}.dictionary_from (value {list(config.mixed_dictionaries[name])})"
         )
+    if entry.same_pool_as is not None:
+        target = config.datasets.get(entry.same_pool_as)
+        if target is None or entry.same_pool_as == name or target.same_pool_as is not None:
+            raise ConfigError(
+                f"{where(['datasets', name, 'same_pool_as'])}: datasets.{name}.same_pool_as: must be another dataset "
+                f"that draws its own pool (value {entry.same_pool_as!r}); known: {', '.join(config.datasets)}")
     if entry.poses == "worldcup2014" and entry.scene != "soccer":
         raise ConfigError(
             f"{where(['datasets', name, 'scene'])}: datasets.{name}.scene: the poses 'worldcup2014' are World Cup "

@@ -373,6 +373,7 @@ class DatasetConfig(StrictModel):
     min_field_fraction: StrictFloat | None = Field(None, ge=0, lt=1)
     dictionary: Dictionary | None = None
     images: Images | None = None
+    same_pool_as: str | None = None
 
     @field_validator("dictionary_from", mode="before")
     @classmethod
@@ -392,6 +393,9 @@ class DatasetConfig(StrictModel):
             raise ValueError(f"poses {self.poses!r}: every pose is in train or test, so dictionary_from: is required")
         if self.poses is not None and self.min_field_fraction:
             raise ValueError(f"min_field_fraction: the poses {self.poses!r} are given cameras, none can be redrawn")
+        if self.same_pool_as is not None and (self.seed is not None or self.dictionary_from):
+            raise ValueError(f"same_pool_as {self.same_pool_as!r} draws that dataset's pool from its name: leave "
+                             f"seed: and dictionary_from: out")
         if self.dictionary == "pool" and self.dictionary_from:
             raise ValueError("dictionary: pool searches the dataset's own pool, but its dictionary comes from "
                              f"dictionary_from {list(self.dictionary_from)}; leave dictionary out")

@@ -30,7 +30,9 @@ class DatasetSpec(StrictModel):
     ``seed`` is the configured seed: the dataset's own ``seed:`` if it has one
     (``seed_from_name`` False: the pool is drawn from it as is), else the file's
     ``defaults.seed``, which :attr:`pool_entropy` combines with the dataset's name
-    so that every dataset draws an independent pool (SPEC §6).
+    so that every dataset draws an independent pool (SPEC §6); ``pool_name`` (a
+    dataset's ``same_pool_as``), when set, is the name combined instead, so the pool
+    is that dataset's.
     ``min_field_fraction`` > 0 redraws cameras whose semantic map has fewer
     non-background pixels than that fraction (:mod:`synthcal.generate.pipeline`).
     """
@@ -54,11 +56,17 @@ class DatasetSpec(StrictModel):
     mixed_sources: tuple[str, ...] = ()
     own_dictionary: bool = True
     images: Images = "all"
+    pool_name: str | None = None
 
     def stored_config(self) -> dict[str, Any]:
         """The ``config`` attribute a store records: ``images`` left out when ``all``
-        (stores of the default stay byte-identical to those made before the option)."""
-        return self.model_dump(mode="json", exclude={"images"} if self.images == "all" else set())
+        and ``pool_name`` when None (stores of the defaults stay byte-identical to those made before the options)."""
+        return self.model_dump(mode="json", exclude=self._unset_options())
+
+    def _unset_options(self) -> set[str]:
+        """Options left out of the stored config and the hash at their defaults (older stores keep theirs)."""
+        unset = {"images"} if self.images == "all" else set()
+        return unset | ({"pool_name"} if self.pool_name is None else set())
 
     def config_hash(self) -> str:
         """SHA-256 of the canonical JSON of what determines the pool's arrays.
@@ -66,15 +74,14 @@ class DatasetSpec(StrictModel):
         Split sizes, seeds and dictionary sources are left out: splits are drawn
         later, inside the store, and changing them must not invalidate a generated
         pool. ``poses`` is left out when unset, so grid datasets keep their hash;
-        ``images`` when ``all``, so default stores keep theirs.
+        ``images`` when ``all`` and ``pool_name`` when None, so default stores keep theirs.
         A store records the hash of the spec whose relative grid is made absolute
         at the scene's anchor (``synthcal.generate.pipeline.anchored_spec``).
         """
         exclude = {"splits", "split_seeds", "mixed_sources", "own_dictionary"}
         if self.poses is None:
             exclude.add("poses")
-        if self.images == "all":
-            exclude.add("images")
+        exclude |= self._unset_options()
         pool = self.model_dump(mode="json", exclude=exclude)
         text = json.dumps(pool, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
@@ -83,18 +90,21 @@ class DatasetSpec(StrictModel):
     def pool_entropy(self) -> int | tuple[int, int]:
         """The ``numpy.random.SeedSequence`` entropy of the pool's random streams.
 
-        ``(seed, zlib.crc32(name.encode()))`` — stable across runs, machines and
+        ``(seed, zlib.crc32(name.encode()))`` (``name``: :attr:`pool_name` when set) — stable across runs, machines and
         Python versions (unlike ``hash``) — or, for a dataset with its own
         ``seed:``, that seed as is. The cameras are drawn with
         ``SeedSequence(pool_entropy, spawn_key=(0,))`` and sample ``i``'s
         appearance with ``spawn_key=(1, i)``.
         """
-        return (self.seed, zlib.crc32(self.name.encode())) if self.seed_from_name else self.seed
+        name = self.name if self.pool_name is None else self.pool_name
+        return (self.seed, zlib.crc32(name.encode())) if self.seed_from_name else self.seed
 
     def pool_seed_attributes(self) -> dict[str, Any]:
         """How the pool's seed was derived, as recorded in the store's ``pool_seed`` attribute."""
         entropy = self.pool_entropy
         rule = ("numpy.random.SeedSequence([seed, zlib.crc32(dataset.encode())])" if self.seed_from_name
                 else "numpy.random.SeedSequence(seed): the dataset's own seed, as is")
+        if self.pool_name is not None:
+            rule = rule.replace("dataset.encode()", f"{self.pool_name!r}.encode()") + " (same_pool_as)"
         return {"seed": self.seed, "entropy": list(entropy) if isinstance(entropy, tuple) else entropy,
                 "rule": rule, "from_name": self.seed_from_name}

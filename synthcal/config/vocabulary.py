@@ -42,6 +42,7 @@ __all__ = [
     "CLASS_REDUCTIONS",
     "DICTIONARIES",
     "GRID_AXES",
+    "BUILTIN_LAYOUT_NAMES",
     "BUILTIN_SCENE_NAMES",
     "POSE_SET_SPLITS",
     "READINGS",
@@ -94,10 +95,18 @@ MODEL_LABELS: dict[Model, str] = {"proposed": "proposed", "baseline": "sha2020",
 
 GRID_AXES = ("pan_deg", "tilt_deg", "focal_px", "x", "y", "z")
 
+# The built-in intersections painted from a layout (synthcal.scenes.intersection.LAYOUTS): the
+# paper's five, then intersection-1's family (its topology, other cross-sections and textures).
+BUILTIN_LAYOUT_NAMES: tuple[str, ...] = (
+    "intersection-1", "intersection-2", "intersection-3", "intersection-4", "intersection-5",
+    "intersection-1a", "intersection-1b", "intersection-1c", "intersection-1d",
+)
 # The built-in scenes a dataset's ``scene:`` may name besides the file's own
 # ``scenes:``, in listing order; synthcal.scenes.BUILTIN_SCENES has exactly these keys.
+# After soccer: intersection-1 turned about its centre, and blank (synthcal.scenes.variants).
 BUILTIN_SCENE_NAMES: tuple[str, ...] = (
-    "intersection-1", "intersection-2", "intersection-3", "intersection-4", "intersection-5", "soccer",
+    *BUILTIN_LAYOUT_NAMES, "soccer",
+    "intersection-1-turn15", "intersection-1-turn45", "intersection-1-turn90", "intersection-1-blank",
 )
 
 # Each set of given poses (``poses:``) → the sizes of its fixed train/test partition

@@ -25,13 +25,21 @@ from .intersection import PALETTE as INTERSECTION_PALETTE
 from .osm import build_osm_scene
 from .soccer import build_soccer
 from .user import load_user_scene
+from .variants import blank_scene, turned_scene
 
 __all__ = ["Scene", "SceneError", "BUILTIN_SCENES", "build_scene", "load_user_scene", "build_osm_scene", "draw_scene",
            "colorize", "NUM_CLASSES"]
 
+# Scenes derived from intersection-1 (synthcal.scenes.variants): name → turn in degrees, None for blank.
+_DERIVED: dict[str, float | None] = {"intersection-1-turn15": 15.0, "intersection-1-turn45": 45.0,
+                                     "intersection-1-turn90": 90.0, "intersection-1-blank": None}
+
 BUILTIN_SCENES: dict[str, str] = {
     **{name: layout.description for name, layout in LAYOUTS.items()},
     "soccer": "FIFA pitch 105 x 68 m from the World Cup 2014 line model; camera 45 m behind the touchline, 17 m up",
+    **{name: f"intersection-1 turned {turn:g} deg about its centre, heading_deg {turn:g} (same views, turned frame)"
+       for name, turn in _DERIVED.items() if turn is not None},
+    "intersection-1-blank": "intersection-1's frame and camera anchor, every pixel background and black (a control)",
 }
 if tuple(BUILTIN_SCENES) != BUILTIN_SCENE_NAMES:
     # config.py validates ``scene:`` against its own copy of the names (it imports nothing of synthcal)
@@ -60,4 +68,10 @@ def build_scene(name: str) -> Scene:
                      description=BUILTIN_SCENES[name])
     if name == "soccer":
         return build_soccer(BUILTIN_SCENES[name])
+    if name in _DERIVED:
+        turn = _DERIVED[name]
+        base = build_scene("intersection-1")
+        if turn is None:
+            return blank_scene(base, name, BUILTIN_SCENES[name])
+        return turned_scene(base, turn, name, BUILTIN_SCENES[name])
     raise SceneError(f"scene: unknown built-in scene {name!r}; built-in scenes: {', '.join(BUILTIN_SCENES)}")

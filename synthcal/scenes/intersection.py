@@ -88,7 +88,7 @@ from .network import (
 )
 from .roadkit import FAR, SHIFT, Canvas, Point, at, circle, fixed, normal, strip, unit
 
-__all__ = ["CLASSES", "PALETTE", "LAYOUTS", "build_intersection"]
+__all__ = ["CLASSES", "PALETTE", "LAYOUTS", "TEXTURES", "build_intersection"]
 
 CLASSES = ("background", "road", "terrain", "bicycle path")
 PALETTE = ((0, 0, 0), (128, 64, 128), (107, 196, 64), (230, 40, 60))
@@ -104,6 +104,29 @@ LOOKS = (
     MaterialLook((62, 62, 66), (84, 84, 88), 8),  # car-park asphalt
     MaterialLook((128, 116, 104), (162, 150, 134), 20),  # cobbled apron
 )
+
+
+def _retextured(**looks: MaterialLook) -> tuple[MaterialLook, ...]:
+    """The default textures with some materials (``ASPHALT=...``: :class:`Material` names) replaced."""
+    table = list(LOOKS)
+    for name, look in looks.items():
+        table[getattr(Material, name)] = look
+    return tuple(table)
+
+
+# Texture sets by name (``Layout.textures``): the same material map, other colours and grain.
+TEXTURES: dict[str, tuple[MaterialLook, ...]] = {
+    "default": LOOKS,
+    "concrete": _retextured(ASPHALT=MaterialLook((150, 148, 140), (172, 170, 162), 6),
+                            BIKE=MaterialLook((120, 48, 44), (150, 66, 56), 8)),
+    "dry": _retextured(ASPHALT=MaterialLook((88, 86, 84), (112, 110, 106), 11),
+                       GRASS=MaterialLook((128, 122, 70), (160, 150, 92), 14)),
+    "dark": _retextured(ASPHALT=MaterialLook((44, 45, 50), (64, 64, 70), 7),
+                        GRASS=MaterialLook((38, 84, 30), (70, 112, 44), 12),
+                        SIDEWALK=MaterialLook((150, 120, 100), (176, 146, 124), 9)),
+    "bright": _retextured(BIKE=MaterialLook((168, 72, 60), (196, 96, 80), 8),
+                          COURTYARD=MaterialLook((120, 120, 116), (150, 150, 146), 10)),
+}
 
 _walk = Side(verge=2.0, walk=3.0)
 _tree_walk = Side(verge=3.0, walk=3.0, trees=True)
@@ -149,6 +172,28 @@ LAYOUTS: dict[str, Layout] = {
         roundabout=Roundabout(radius=24.0, lanes=2, island=12.0, apron=2.5),
         bike_tracks=(BikeTrack(150), BikeTrack(328)),
         cars=36, seed=1005),
+    # intersection-1's family: its topology (legs at 0/90/180/270°, centre (650, 950)), other cross-sections
+    "intersection-1a": Layout(
+        "intersection-1a", "intersection-1's crossing, two lanes each way east-west with cycle paths, 4 m corners",
+        legs=(Leg(0, lanes=2, left=_cycle, right=_cycle), Leg(90, lane_width=3.5, right=_walk),
+              Leg(180, lanes=2, left=_cycle, right=_cycle), Leg(270, lane_width=3.5, left=_tree_walk)),
+        sectors=("buildings", "park", "buildings", "buildings"), kerb_radius=4.0, textures="concrete", cars=18,
+        seed=1101),
+    "intersection-1b": Layout(
+        "intersection-1b", "intersection-1's crossing, two dual carriageways, cycle paths all round, 12 m corners",
+        legs=tuple(Leg(angle, lanes=2, median=3.0, left=_cycle, right=_cycle) for angle in (0, 90, 180, 270)),
+        sectors=("park", "buildings", "park", "buildings"), kerb_radius=12.0, zebras=False, textures="dry", cars=24,
+        seed=1102),
+    "intersection-1c": Layout(
+        "intersection-1c", "intersection-1's crossing, narrow tree-lined roads, no cycle paths, 5 m corners",
+        legs=tuple(Leg(angle, lane_width=3.0, left=_tree_walk, right=_tree_walk) for angle in (0, 90, 180, 270)),
+        sectors=("buildings", "parking", "buildings", "park"), kerb_radius=5.0, textures="dark", cars=12, seed=1103),
+    "intersection-1d": Layout(
+        "intersection-1d", "intersection-1's crossing, splitter islands north-south, two-way cycle paths east-west",
+        legs=(Leg(0, left=_cycle2, right=_cycle2), Leg(90, median=2.5, median_length=18.0, left=_walk, right=_cycle),
+              Leg(180, left=_cycle2, right=_cycle2),
+              Leg(270, median=2.5, median_length=18.0, left=_cycle, right=_walk)),
+        sectors=("park", "buildings", "buildings", "park"), kerb_radius=9.0, textures="bright", cars=16, seed=1104),
 }
 
 
@@ -321,11 +366,12 @@ def build_intersection(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
     free = cv2.erode((canvas.material == Material.COURTYARD).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
     buildings = place_buildings(free, rng, 500, [g.angle for g in net.legs], PPM)
 
-    rgb = base_colours(canvas.material, LOOKS, rng)
+    looks = TEXTURES[layout.textures]
+    rgb = base_colours(canvas.material, looks, rng)
     crossing = (canvas.bike_trace == 1) & (canvas.semantic == 1)  # red bicycle crossings over the road
     red = np.array([150, 58, 52], np.uint16) * 5
     rgb[crossing] = ((rgb[crossing].astype(np.uint16) * 3 + red) >> 3).astype(np.uint8)
-    white, teeth = network_markings(net)
+    white, teeth = network_markings(net, layout.zebras)
     parked = []
     for lot in lots:
         lines, cars = _lot_marks_and_cars(lot, rng)
@@ -333,7 +379,7 @@ def build_intersection(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
         parked += cars
     for poly in white + teeth:
         fill_rgb(rgb, poly, (226, 226, 220))
-    add_grain(rgb, canvas.material, LOOKS, rng)
+    add_grain(rgb, canvas.material, looks, rng)
     # kerbs: a light rim where the road meets anything else
     road = (canvas.semantic == 1).astype(np.uint8)
     kerb = (road - cv2.erode(road, np.ones((3, 3), np.uint8))).astype(bool)

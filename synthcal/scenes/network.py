@@ -98,6 +98,8 @@ class Layout:
     slips: tuple[Slip, ...] = ()
     bike_tracks: tuple[BikeTrack, ...] = ()
     kerb_radius: float = 7.0
+    zebras: bool = True  # zebra crossings at every leg's mouth (RGB only)
+    textures: str = "default"  # the material colours and grain (a key of ``intersection.TEXTURES``)
     cars: int = 24
     size: tuple[int, int] = (1300, 1900)
     centre: tuple[float, float] = (650.0, 950.0)
@@ -372,10 +374,11 @@ def _slip_island(
     return [P0] + arc(O, outer, a1, a2), slip.island
 
 
-def network_markings(net: Network) -> tuple[list[list[Point]], list[list[Point]]]:
+def network_markings(net: Network, zebras: bool = True) -> tuple[list[list[Point]], list[list[Point]]]:
     """White road markings as polygons (pixels), RGB only.
 
-    Sets each leg's ``marks_start``.
+    Sets each leg's ``marks_start``. ``zebras`` False leaves the zebra crossings
+    out; the stop lines stay where they would be.
 
     Returns:
         ``(white, teeth)``: zebra stripes, stop lines, lane and centre lines, bike
@@ -390,7 +393,7 @@ def network_markings(net: Network) -> tuple[list[list[Point]], list[list[Point]]
             teeth += _give_way_teeth(net, g)
         else:
             zebra0 = g.clear + 1.0 * ppm
-        white += _leg_markings(net, g, zebra0)
+        white += _leg_markings(net, g, zebra0, zebras)
     if ring is not None and ring.lanes > 1:
         white += _ring_lane_divider(net.centre, ring, ppm)
     return white, teeth
@@ -410,14 +413,15 @@ def _give_way_teeth(net: Network, g: LegGeometry) -> list[list[Point]]:
     return teeth
 
 
-def _leg_markings(net: Network, g: LegGeometry, zebra0: float) -> list[list[Point]]:
-    """One leg's zebra from ``zebra0`` px, stop line, centre and lane lines, bicycle-path centre lines."""
+def _leg_markings(net: Network, g: LegGeometry, zebra0: float, zebras: bool = True) -> list[list[Point]]:
+    """One leg's zebra from ``zebra0`` px (unless ``zebras`` is False), stop line, centre and lane lines,
+    bicycle-path centre lines."""
     c, ppm = net.centre, net.ppm
     thin = 0.15 * ppm
     white = []
     # zebra: 0.5 m stripes every metre along the road, sparing the median
     lat = -g.half_width + 0.5 * ppm
-    while lat + 0.5 * ppm < g.half_width - 0.25 * ppm:
+    while zebras and lat + 0.5 * ppm < g.half_width - 0.25 * ppm:
         if g.median == 0 or abs(lat + 0.25 * ppm) > g.median / 2 + 0.3 * ppm:
             white.append(strip(c, g.angle, lat, lat + 0.5 * ppm, zebra0, zebra0 + 4 * ppm))
         lat += 1.0 * ppm

@@ -35,6 +35,14 @@ GOLDEN = {
     "intersection-4": "1bc9ebc58394d73e04c5fde76fc97d506e8d79857c0ee1b7567c9185124b4a8e",
     "intersection-5": "a869e9686598a09b4aaa4e0da44ccf7717b4e13e20ff4bc01debfc2132278fa9",
     "soccer": "fc101dc62179dffe5a71f40ffbb80e70e6a3177bfd3e5098cc4e5649bc5f86d6",
+    "intersection-1a": "d75fcc9bad8f2f6722b9ecc47a0136593e5c5a25a6c3212919a68a411e7624c1",
+    "intersection-1b": "b3cb49ef15e3ed8203c754b4ef5aab39f6ef8892cd91eab067c6f4acbd7a0ace",
+    "intersection-1c": "a3ac4c8a4fa797a158add9d03c3b0e8efcfb38aaeac0b1991ae87d9c717a2641",
+    "intersection-1d": "3bbd19857a0e73da1b3d51927d7178b5ece38909de1eedab39c9e2d86bc3d247",
+    "intersection-1-turn15": "e02b15745280fbc8020c54929bfbd9f606adf3355142eb972169bdb15529a54d",
+    "intersection-1-turn45": "4406e297ae6b28990be22bcbd09b24a2c858ebda5c55c7d1e15f239f0b123c0b",
+    "intersection-1-turn90": "aca9d60ab2a101cc55f2520fe146cdbec695188d27d5a2f4b51640dd59530660",
+    "intersection-1-blank": "30a6ae2e2d924f1f0b7dcaf219055850eff4e1e61e470feea637906f415e5f58",
 }
 
 
@@ -57,7 +65,9 @@ def _border_runs(mask: np.ndarray) -> int:
 
 
 def test_builtin_names_and_unknown_name():
-    assert list(BUILTIN_SCENES) == INTERSECTIONS + ["soccer"]
+    family = [f"intersection-1{v}" for v in "abcd"]
+    derived = [f"intersection-1-turn{a}" for a in (15, 45, 90)] + ["intersection-1-blank"]
+    assert list(BUILTIN_SCENES) == INTERSECTIONS + family + ["soccer"] + derived
     assert all(isinstance(d, str) and d for d in BUILTIN_SCENES.values())
     with pytest.raises(SceneError, match="intersection-9"):
         build_scene("intersection-9")

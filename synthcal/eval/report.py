@@ -3,7 +3,10 @@
 :func:`results_tables` splits a results frame by segmentation and profile and
 formats one table per part and layout (:func:`synthcal.eval.tables.format_table`),
 the legend once after the last; under ``iou_weighted`` each table states the
-all-background floor of its datasets (:func:`background_floors`).
+all-background floor of its datasets (:func:`background_floors`); under each mixed
+table, the template diagnostics of its mixed-dictionary runs
+(:func:`synthcal.eval.templates.diagnostics_text`). Layout ``report`` is
+:func:`reproduction_report` (:mod:`synthcal.eval.reproduction`).
 :func:`paired_report` reads the two sides of ``--paired A B`` (:func:`paired_sides`)
 and formats their per-seed differences with confidence intervals
 (:func:`synthcal.eval.statistics.format_paired`), the bootstrap's from each run's
@@ -27,8 +30,10 @@ from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
 from synthcal.eval.statistics import background_floor, format_paired
 from synthcal.eval.tables import PAIR_KEYS, format_table, legend, wrap_caption
+from synthcal.eval.templates import diagnostics_text
 
-__all__ = ["ReportError", "results_tables", "reproduction_report", "split_by", "one_label", "background_floors", "per_image_reader",
+__all__ = ["ReportError", "results_tables", "reproduction_report", "split_by",
+           "one_label", "background_floors", "per_image_reader",
            "paired_sides", "paired_report"]
 
 # The reading whose tables state the all-background floor: the one that rewards predicting background.
@@ -99,6 +104,10 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
             except ValueError as error:
                 raise ReportError(f"table {name!r}: {error}") from None
             yield table
+            if name == "mixed":
+                diagnostics = diagnostics_text(part, results, metric, fmt)
+                if diagnostics:
+                    yield diagnostics
     if fmt != "csv":
         yield wrap_caption(legend(metric, compare_paper), fmt) + "\n"
 
@@ -115,7 +124,8 @@ def reproduction_report(frame: pd.DataFrame, fmt: str, metric: str, results: str
                               results, _ALIASES)
     except ValueError as error:
         raise ReportError(f"table 'report': {error}") from None
-    return format_report(report, fmt)
+    mixed = frame[frame["dataset"].astype(str).str.startswith("mixed-")]
+    return format_report(report, fmt) + ("\n" + diagnostics_text(mixed, results, metric, fmt) if len(mixed) else "")
 
 
 def one_label(frame: pd.DataFrame) -> pd.DataFrame:

@@ -74,3 +74,27 @@ def test_agreement_and_pan_error_against_the_store(smoke_stores, tmp_path):
     assert row["oracle_pan_error"] == pytest.approx(np.median(error(oracle)))
     text = format_diagnostics(diagnostics, {"intersection-1": "61.00 ± 1.00"})
     assert f"for {row['agreement']:.1f} %" in text and "61.00 ± 1.00" in text.replace("\n", " ")
+
+
+def test_mixed_dictionary_templates_take_their_pose_from_their_source_store(smoke_stores, tmp_path):
+    names = ["intersection-1", "intersection-2", "intersection-3", "intersection-4", "intersection-5"]
+    stores = smoke_stores.copy(names, tmp_path / "data")
+    draw_splits(stores["intersection-1"], seeds=[0], mixed=True)
+    dictionary = load_split(stores["intersection-1"], "dictionary", 0, mixed=True)
+    test = load_split(stores["intersection-1"], "test", 0)
+    assert len(set(dictionary.source.tolist())) > 1  # templates from several stores
+    picks = np.arange(len(test.indices)) % len(dictionary.indices)
+    results = tmp_path / "results"
+    _fake_run(results, stores["intersection-1"], "retrieved", test, dictionary.homographies[picks] * 3.0)
+    record = results / "runs" / "intersection-1_retrieved_s0" / "run.json"
+    edited = json.loads(record.read_text())
+    edited["run"].update(dataset="mixed-1", mixed=True)
+    record.write_text(json.dumps(edited))
+    diagnostics = template_diagnostics(collect_results(results), results)
+    assert diagnostics["dataset"].tolist() == ["mixed-1"] and np.isnan(diagnostics["agreement"].iloc[0])
+    pans = {k: zarr.open_group(str(path), mode="r")["camera/pan_deg"][:]
+            for k, path in enumerate(dictionary.source_stores)}
+    template_pans = np.array([pans[s][i] for s, i in zip(dictionary.source, dictionary.indices, strict=True)])
+    test_pans = zarr.open_group(str(stores["intersection-1"]), mode="r")["camera/pan_deg"][:][np.asarray(test.indices)]
+    errors = np.abs(np.rad2deg(np.angle(np.exp(1j * np.deg2rad(template_pans[picks] - test_pans)))))
+    assert diagnostics["pan_error"].iloc[0] == pytest.approx(np.median(errors))

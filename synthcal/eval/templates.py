@@ -153,6 +153,9 @@ def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: b
     runs = frame[frame["model"].isin([*RETRIEVERS, ORACLE])].drop_duplicates("run_id")
     if mixed_only:
         runs = runs[runs["dataset"].astype(str).str.startswith("mixed-")]
+    columns = [*keys, "model", "seeds", "agreement", "pan_error", "oracle_pan_error"]
+    if not runs["model"].isin(RETRIEVERS).any():
+        return pd.DataFrame(columns=columns)
     picks: dict[str, pd.DataFrame | None] = {}
     for run_id in runs["run_id"]:
         record = read_record(results / "runs" / str(run_id) / "run.json")
@@ -181,7 +184,7 @@ def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: b
                 summary = (np.nanmean(values[:, 0]), np.nanmedian(values[:, 1]), np.nanmedian(values[:, 2]))
             rows.append({**dict(zip(keys, key.split(" / "), strict=True)), "model": model, "seeds": len(per_seed),
                          "agreement": summary[0], "pan_error": summary[1], "oracle_pan_error": summary[2]})
-    return pd.DataFrame(rows, columns=[*keys, "model", "seeds", "agreement", "pan_error", "oracle_pan_error"])
+    return pd.DataFrame(rows, columns=columns)
 
 
 def format_diagnostics(diagnostics: pd.DataFrame, oracle_cells: Mapping[str, str], fmt: str = "md") -> str:

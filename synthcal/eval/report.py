@@ -3,7 +3,10 @@
 :func:`results_tables` splits a results frame by segmentation and profile and
 formats one table per part and layout (:func:`synthcal.eval.tables.format_table`),
 the legend once after the last; under ``iou_weighted`` each table states the
-all-background floor of its datasets (:func:`background_floors`).
+all-background floor of its datasets (:func:`background_floors`); under each mixed
+table, the template diagnostics of its mixed-dictionary runs
+(:func:`synthcal.eval.templates.diagnostics_text`). Layout ``report`` is
+:func:`reproduction_report` (:mod:`synthcal.eval.reproduction`).
 :func:`paired_report` reads the two sides of ``--paired A B`` (:func:`paired_sides`)
 and formats their per-seed differences with confidence intervals
 (:func:`synthcal.eval.statistics.format_paired`), the bootstrap's from each run's
@@ -23,11 +26,14 @@ import numpy as np
 import pandas as pd
 
 from synthcal.eval.harness import table_runs
+from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
 from synthcal.eval.statistics import background_floor, format_paired
 from synthcal.eval.tables import PAIR_KEYS, format_table, legend, wrap_caption
+from synthcal.eval.templates import diagnostics_text
 
-__all__ = ["ReportError", "results_tables", "split_by", "one_label", "background_floors", "per_image_reader",
+__all__ = ["ReportError", "results_tables", "reproduction_report", "split_by",
+           "one_label", "background_floors", "per_image_reader",
            "paired_sides", "paired_report"]
 
 # The reading whose tables state the all-background floor: the one that rewards predicting background.
@@ -67,7 +73,7 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
 
     Args:
         frame: the results (:func:`synthcal.eval.harness.collect_results`).
-        layout: a layout of :func:`format_table`; None picks ``models`` for own-dictionary
+        layout: a layout of :func:`format_table`, or ``report`` (:func:`reproduction_report`); None picks ``models`` for own-dictionary
             datasets and ``mixed`` for mixed ones, each where there are results.
         fmt: ``md``, ``latex`` or ``csv`` (no titles in CSV).
         compare_paper: add the published figures.
@@ -81,6 +87,9 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
     if frame.empty:
         raise ReportError("no finished runs in the results folder")
     frame = one_label(frame)
+    if layout == "report":
+        yield reproduction_report(frame, fmt, metric, results)
+        return
     floors = background_floors(results, frame, metric) if results is not None and metric in FLOOR_READINGS else {}
     frame = table_runs(frame)
     for title, part in split_by(frame, ("segmentation", "profile")):
@@ -95,8 +104,28 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
             except ValueError as error:
                 raise ReportError(f"table {name!r}: {error}") from None
             yield table
+            if name == "mixed":
+                diagnostics = diagnostics_text(part, results, metric, fmt)
+                if diagnostics:
+                    yield diagnostics
     if fmt != "csv":
         yield wrap_caption(legend(metric, compare_paper), fmt) + "\n"
+
+
+def reproduction_report(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path | None = None) -> str:
+    """``table --layout report``: :mod:`synthcal.eval.reproduction`'s report of the runs (one label per
+    estimator already given), references spread over the training keys as in ``--paired``.
+
+    Raises:
+        ReportError: results the report cannot read (as :func:`synthcal.eval.tables.validate_results`).
+    """
+    try:
+        report = report_frame(table_runs(frame, ("training", "loss", "matching_score", "segmentation")), metric,
+                              results, _ALIASES)
+    except ValueError as error:
+        raise ReportError(f"table 'report': {error}") from None
+    mixed = frame[frame["dataset"].astype(str).str.startswith("mixed-")]
+    return format_report(report, fmt) + ("\n" + diagnostics_text(mixed, results, metric, fmt) if len(mixed) else "")
 
 
 def one_label(frame: pd.DataFrame) -> pd.DataFrame:

@@ -1,0 +1,280 @@
+"""The reproduction report: one row per cell, its paired difference against ``sha2020``, and a verdict.
+
+A *cell* is one value of each of :data:`CELL_KEYS` — dataset (the table label:
+``mixed-<k>`` for a mixed dictionary, ``NAME (pool)`` for a pool dictionary),
+training, loss, matching score, segmentation, dictionary, profile and the
+estimator's table label (``model``). Per cell :func:`report_frame` gives:
+
+* ``n_seeds``, ``mean`` and ``std`` (ddof = 1) of the reading over the seeds, in
+  points (percent for fractions, pixels as they are);
+* the paired difference ``model − sha2020`` (:func:`synthcal.eval.statistics.paired_frame`:
+  runs of both models on the same split seed, dataset and settings): its mean,
+  the 95 % paired t interval ``[t_low, t_high]`` over the seeds, the two-sided p
+  of "no difference", the pairs and the seeds where the model scores higher;
+* ``paper``: the paper's figure for the cell, and ``paper_difference``, its
+  figure minus its Sha et al. figure for the same cell (``synthcal/data/paper_iou.csv``;
+  only for readings of the paper's IoU);
+* what validation chose per seed (``learning_rates``, ``stn_epochs``: the runs'
+  ``selection.chosen``, in seed order) and the median seconds per run;
+* ``verdict`` (:func:`verdict`).
+
+Verdict rules
+-------------
+A verdict judges the paper's *claim* for a cell, its difference
+``d = paper − paper's sha2020``, with nothing but the 95 % paired t interval
+``[lo, hi]`` of our per-seed differences. Taken in this order:
+
+1. no verdict ("–"): the cell is ``sha2020`` itself, the paper has no figure for
+   it or for its ``sha2020`` (no claim), or the interval is undefined (fewer than
+   two paired seeds);
+2. **consistent with the paper**: ``lo ≤ d ≤ hi`` (the interval contains the
+   paper's difference), or the interval excludes 0 on the paper's side
+   (``d > 0`` and ``lo > 0``, or ``d < 0`` and ``hi < 0``);
+3. **opposite**: the interval excludes 0 on the other side (``d > 0`` and
+   ``hi < 0``, or ``d < 0`` and ``lo > 0``);
+4. **not reproduced**: what is left — the interval contains 0 but not ``d``
+   (the paper claims a difference our seeds show no sign of), or ``d = 0`` and the
+   interval excludes 0.
+
+Rule 2 comes first, so an interval wide enough to hold both 0 and ``d`` counts
+as consistent: it cannot tell them apart, and its width (and p) is printed
+beside the verdict. The verdict never reads "reproduced": a mean that lands near
+the paper's figure proves nothing the interval does not.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from synthcal.config import PIXEL_METRICS, READINGS
+from synthcal.eval.statistics import paired_frame
+from synthcal.eval.tables import (
+    FORMATS,
+    KEYS,
+    MISSING,
+    PAIR_KEYS,
+    latex_escape,
+    order_values,
+    paper_results,
+    validate_results,
+    wrap_caption,
+)
+
+__all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "verdict", "run_choices", "report_frame", "format_report"]
+
+BASELINE = "sha2020"
+CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
+VERDICTS = ("consistent with the paper", "not reproduced", "opposite")
+# The CSV's columns after the keys (the Markdown shows them in words).
+NUMBERS = ("n_seeds", "mean", "std", "difference", "t_low", "t_high", "p", "n_pairs", "wins", "paper",
+           "paper_difference", "learning_rates", "stn_epochs", "seconds", "verdict")
+
+
+def verdict(low: float, high: float, paper_difference: float) -> str:
+    """The verdict on the paper's difference from our 95 % interval (module docstring, *Verdict rules*).
+
+    Args:
+        low, high: the paired t interval of ours − sha2020, points (NaN: undefined).
+        paper_difference: the paper's figure minus its Sha et al. figure, points (NaN: no claim).
+
+    Returns:
+        One of :data:`VERDICTS`, or "–" where there is no verdict.
+
+    >>> verdict(0.5, 3.0, 2.1), verdict(-1.0, 0.8, 2.1), verdict(-4.0, -0.2, 2.1), verdict(-1.0, 5.0, 2.1)
+    ('consistent with the paper', 'not reproduced', 'opposite', 'consistent with the paper')
+    """
+    if any(pd.isna(v) for v in (low, high, paper_difference)):
+        return MISSING
+    d = paper_difference
+    if low <= d <= high or (d > 0 and low > 0) or (d < 0 and high < 0):
+        return VERDICTS[0]
+    if (d > 0 and high < 0) or (d < 0 and low > 0):
+        return VERDICTS[2]
+    return VERDICTS[1]
+
+
+def _record(results: Path, run_id: str) -> dict[str, Any]:
+    try:
+        record = json.loads((results / "runs" / run_id / "run.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return record if isinstance(record, dict) else {}
+
+
+def run_choices(results: str | Path | None, run_ids: pd.Series) -> pd.DataFrame:
+    """Per run: the learning rate and STN epochs validation chose and the run's seconds, from its record.
+
+    Args:
+        results: the results folder (None: every value missing).
+        run_ids: run ids (``RESULTS/runs/<id>/run.json``).
+
+    Returns:
+        DataFrame indexed like ``run_ids`` with ``learning_rate``, ``stn_epochs``
+        and ``seconds`` (NaN where the record lacks them or cannot be read).
+    """
+    rows = []
+    for run_id in run_ids:
+        record = {} if results is None or pd.isna(run_id) else _record(Path(results), str(run_id))
+        chosen = (record.get("selection") or {}).get("chosen") or {}
+        seconds = record.get("seconds")
+        rows.append({"learning_rate": chosen.get("learning_rate", np.nan), "stn_epochs": chosen.get("stn_epochs", np.nan),
+                     "seconds": float(seconds) if isinstance(seconds, (int, float)) else np.nan})
+    return pd.DataFrame(rows, index=run_ids.index, columns=["learning_rate", "stn_epochs", "seconds"])
+
+
+def _per_seed(values: pd.Series) -> str:
+    """Values in seed order as ``a, b, …`` ("–" for none recorded)."""
+    if values.isna().all():
+        return MISSING
+    return ", ".join(MISSING if pd.isna(v) else f"{v:g}" for v in values)
+
+
+def _paper_figures(cells: pd.DataFrame, aliases: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell's paper figure and the paper's figure minus its sha2020 figure for the same keys (NaN: none)."""
+    paper = paper_results().drop_duplicates(list(KEYS))
+    lookup = {tuple(map(str, key)): value
+              for key, value in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
+
+    def figure(cell: Mapping[str, Any], model: str) -> float:
+        key = dict(cell, model=model, dataset=aliases.get(str(cell["dataset"]), str(cell["dataset"])))
+        return float(lookup.get(tuple(str(key[k]) for k in KEYS), np.nan))
+
+    records = cells[list(KEYS)].to_dict("records")
+    figures = np.array([figure(c, str(c["model"])) for c in records], dtype=float)
+    baseline = np.array([figure(c, BASELINE) for c in records], dtype=float)
+    differences = np.where([c["model"] == BASELINE for c in records], np.nan, figures - baseline)
+    return figures, differences
+
+
+def _differences(frame: pd.DataFrame, value: str, aliases: Mapping[str, str]) -> pd.DataFrame:
+    """Paired ``model − sha2020`` per cell for every model with pairs (none: an empty frame)."""
+    others = [k for k in PAIR_KEYS if k != "model"]
+    pieces = []
+    if BASELINE in set(frame["model"]):
+        for model in [m for m in dict.fromkeys(frame["model"]) if m != BASELINE]:
+            try:
+                cells = paired_frame(frame, model, BASELINE, "model", value, aliases)
+            except ValueError:  # no seed and settings with both: "–" in its rows
+                continue
+            pieces.append(cells.assign(model=model))
+    columns = [*others, "model", "mean", "t_low", "t_high", "p", "n_pairs", "a_wins"]
+    if not pieces:
+        return pd.DataFrame(columns=columns)
+    return pd.concat(pieces, ignore_index=True)[columns].rename(columns={"mean": "difference", "a_wins": "wins"})
+
+
+def report_frame(frame: pd.DataFrame, value: str = "iou", results: str | Path | None = None,
+                 aliases: Mapping[str, str] | None = None) -> pd.DataFrame:
+    """The reproduction report as numbers, one row per cell (module docstring).
+
+    Args:
+        frame: per-run results (:func:`synthcal.eval.harness.collect_results`, references
+            already spread over the training keys: :func:`synthcal.eval.harness.table_runs`).
+        value: the reading.
+        results: the results folder, whose records give the choices and times (None: "–").
+        aliases: our dataset label → the paper's.
+
+    Returns:
+        DataFrame with :data:`CELL_KEYS` then :data:`NUMBERS`, in the paper's order;
+        ``attrs["value"]`` the reading.
+    """
+    aliases = aliases or {}
+    checked = validate_results(frame, value, PAIR_KEYS)
+    checked["dictionary"] = (frame["dictionary"].fillna("split").astype(str) if "dictionary" in frame else "split")
+    checked = pd.concat([checked, run_choices(results, checked.get("run_id", pd.Series(np.nan, checked.index)))],
+                        axis=1).sort_values("seed", kind="stable")
+    scale = 1.0 if value in PIXEL_METRICS else 100.0
+    grouped = checked.groupby(list(CELL_KEYS), sort=False)
+    with np.errstate(invalid="ignore"):
+        cells = grouped[value].agg(n_seeds="count", mean="mean", std=lambda x: x.std(ddof=1)).reset_index()
+    cells[["mean", "std"]] *= scale
+    chosen = grouped.agg(learning_rates=("learning_rate", _per_seed), stn_epochs=("stn_epochs", _per_seed),
+                         seconds=("seconds", "median")).reset_index()
+    cells = cells.merge(chosen, on=list(CELL_KEYS), how="left")
+    cells = cells.merge(_differences(checked, value, aliases), on=list(PAIR_KEYS), how="left")
+    if value in READINGS:
+        cells["paper"], cells["paper_difference"] = _paper_figures(cells, aliases)
+    else:
+        cells["paper"] = cells["paper_difference"] = np.nan
+    cells["verdict"] = [verdict(lo, hi, d) for lo, hi, d in
+                        zip(cells["t_low"], cells["t_high"], cells["paper_difference"], strict=True)]
+    orders = [{v: i for i, v in enumerate(order_values(cells[k].astype(str), k, "models"))} for k in CELL_KEYS]
+    position = [tuple(o[str(v)] for o, v in zip(orders, row, strict=True))
+                for row in cells[list(CELL_KEYS)].itertuples(index=False)]
+    cells = cells.iloc[sorted(range(len(cells)), key=position.__getitem__)].reset_index(drop=True)
+    cells[["n_pairs", "wins"]] = cells[["n_pairs", "wins"]].astype("Int64")
+    out = cells[[*CELL_KEYS, *NUMBERS]]
+    out.attrs["value"] = value
+    return out
+
+
+# --- text ------------------------------------------------------------------------------
+
+
+def _number(value: float, signed: bool = False) -> str:
+    return MISSING if pd.isna(value) else f"{value:+.2f}" if signed else f"{value:.2f}"
+
+
+def _row_text(row: Mapping[str, Any]) -> list[str]:
+    """The display cells after the keys."""
+    spread = "" if row["n_seeds"] < 2 or pd.isna(row["std"]) else f" ± {row['std']:.2f}"
+    interval = MISSING if pd.isna(row["t_low"]) else f"[{row['t_low']:+.2f}, {row['t_high']:+.2f}]"
+    p = MISSING if pd.isna(row["p"]) else "< 0.001" if row["p"] < 0.001 else f"{row['p']:.3f}"
+    wins = MISSING if pd.isna(row["n_pairs"]) else f"{row['wins']} of {row['n_pairs']}"
+    seconds = MISSING if pd.isna(row["seconds"]) else f"{row['seconds']:.0f}"
+    return [str(row["n_seeds"]), _number(row["mean"]) + ("" if pd.isna(row["mean"]) else spread),
+            _number(row["difference"], True), interval, p, wins, _number(row["paper"]),
+            _number(row["paper_difference"], True), row["learning_rates"], row["stn_epochs"], seconds, row["verdict"]]
+
+
+HEADER = ("n", "mean ± std", f"− {BASELINE}", "95 % CI (t)", "p", "wins", "paper", f"paper − {BASELINE}",
+          "lr (per seed)", "STN epochs (per seed)", "s/run", "verdict")
+
+
+def report_caption(value: str, constants: Mapping[str, str]) -> str:
+    """What the report's columns hold and how a verdict is reached."""
+    unit = "px" if value in PIXEL_METRICS else "%"
+    text = (f"{value} ({unit}): mean ± std over seeds (ddof = 1). − {BASELINE}: mean over seeds of the per-seed "
+            f"difference against {BASELINE} run on the same split seed and settings; 95 % CI (t): paired t interval; "
+            f"p: its two-sided test of no difference; wins: seeds where the row scores higher. paper: the published "
+            f"figure (a UNet's segmentation, the paper's own training; SPEC §7), paper − {BASELINE}: its difference "
+            f"for the same cell. lr, STN epochs: what validation chose, per seed in seed order; s/run: median "
+            f"seconds of a run. Verdict, from the 95 % CI [lo, hi] and the paper's difference d only: consistent "
+            f"with the paper if lo ≤ d ≤ hi or the CI excludes 0 on d's side; opposite if it excludes 0 on the "
+            f"other side; not reproduced otherwise (the CI holds 0 but not d); – without a claim or a CI.")
+    if constants:
+        text += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."
+    return text
+
+
+def format_report(report: pd.DataFrame, fmt: str = "md") -> str:
+    """:func:`report_frame` as Markdown, LaTeX or CSV (the numbers, re-readable with pandas).
+
+    Markdown and LaTeX show the keys that vary among the rows (dataset and model
+    always), the others in the caption.
+    """
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
+    if fmt == "csv":
+        return report.to_csv(index=False)
+    shown = [k for k in CELL_KEYS if k in ("dataset", "model") or report[k].nunique() > 1]
+    constants = {k: str(report[k].iloc[0]) for k in CELL_KEYS if k not in shown and report[k].iloc[0] != MISSING}
+    header = [*shown, *HEADER]
+    body = [[str(row[k]) for k in shown] + _row_text(row) for row in report.to_dict("records")]
+    caption = wrap_caption(report_caption(str(report.attrs.get("value", "iou")), constants), fmt)
+    if fmt == "md":
+        lines = ["| " + " | ".join(header) + " |",
+                 "|" + "|".join([":---"] * len(shown) + ["---:"] * (len(HEADER) - 1) + [":---"]) + "|"]
+        lines += ["| " + " | ".join(cells) + " |" for cells in body]
+        return "\n".join(lines) + "\n\n" + caption + "\n"
+    lines = [rf"\begin{{tabular}}{{{'l' * len(shown)}{'r' * (len(HEADER) - 1)}l}}", r"\hline",
+             " & ".join(latex_escape(h) for h in header) + r" \\", r"\hline"]
+    lines += [" & ".join(latex_escape(c) for c in cells) + r" \\" for cells in body]
+    lines += [r"\hline", r"\end{tabular}", caption]
+    return "\n".join(lines) + "\n"

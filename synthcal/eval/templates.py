@@ -1,0 +1,234 @@
+"""Which template a retrieval picked, and how far its pose is from the test image's: mixed-dictionary diagnostics.
+
+``retrieved``, ``template`` and ``oracle-template`` return a dictionary
+template's own homography bit for bit (:mod:`synthcal.estimators.diagnostic`),
+and every run stores its per-image estimates (``metrics.csv``, ``h00`` … ``h22``).
+So the template each picked is found again without the estimators' help
+(:func:`identify_templates`): the dictionary template whose homography equals
+the estimate (both scaled to unit norm, sign fixed; :data:`TOLERANCE`). Poses
+come from the stores (``camera/pan_deg``): the test image's from the target
+store at its pool index, a template's from the store it was drawn from (a mixed
+dictionary's source store) — each pan as its own store records it.
+
+Per dataset, seed, settings and retriever (:func:`template_diagnostics`):
+
+* ``agreement``: the share of test images where the retriever picked the
+  template ``oracle-template`` picked (the best-pose one by the true matching
+  score) — "the best-looking template is the best-pose one";
+* ``pan_error``: the median over test images of the absolute pan difference
+  (degrees, wrapped to [0, 180]) between the retriever's template and the test
+  image; ``oracle_pan_error`` the same for ``oracle-template``'s.
+
+Seeds are summarised by their mean (``agreement``) and the median of the
+per-seed medians (pan errors). A run whose estimates are not templates (none
+identified), or whose store cannot be read, is left out.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from synthcal.eval.tables import MISSING, wrap_caption
+
+__all__ = ["RETRIEVERS", "ORACLE", "TOLERANCE", "identify_templates", "pan_error_deg", "template_diagnostics",
+           "format_diagnostics", "oracle_cells", "diagnostics_text"]
+
+RETRIEVERS = ("retrieved", "template")
+ORACLE = "oracle-template"
+# Largest difference of unit-norm homographies taken as the same template (CSV round-trips floats exactly;
+# this allows for a rewrite at lower precision, far below any two distinct cameras' difference).
+TOLERANCE = 1e-7
+_H_COLUMNS = [f"h{i}{j}" for i in range(3) for j in range(3)]
+
+
+def _unit(homographies: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) → (N, 9) at unit Frobenius norm, the sign making the largest-magnitude entry positive."""
+    flat = np.asarray(homographies, np.float64).reshape(-1, 9)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        flat = flat / np.linalg.norm(flat, axis=1, keepdims=True)
+    sign = np.sign(flat[np.arange(len(flat)), np.nanargmax(np.abs(np.nan_to_num(flat)), axis=1)])
+    return flat * np.where(sign == 0, 1.0, sign)[:, None]
+
+
+def identify_templates(estimates: np.ndarray, dictionary: np.ndarray, tolerance: float = TOLERANCE) -> np.ndarray:
+    """The dictionary template each estimate is (up to scale), -1 where none is.
+
+    Args:
+        estimates: (N, 3, 3) estimated homographies (NaN rows: no estimate).
+        dictionary: (K, 3, 3) the dictionary's homographies.
+        tolerance: largest distance of the unit-norm homographies counted as equal.
+
+    Returns:
+        (N,) int64 positions into ``dictionary`` (-1: not a template).
+    """
+    a, b = _unit(estimates), _unit(dictionary)
+    out = np.full(len(a), -1, np.int64)
+    for start in range(0, len(a), 256):  # (256, K) distances at a time
+        d = np.linalg.norm(a[start:start + 256, None, :] - b[None, :, :], axis=-1)
+        nearest = np.nanargmin(np.nan_to_num(d, nan=np.inf), axis=1)
+        found = d[np.arange(len(nearest)), nearest] <= tolerance
+        out[start:start + 256] = np.where(found, nearest, -1)
+    return out
+
+
+def pan_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Absolute pan differences in degrees, wrapped to [0, 180]."""
+    return np.abs((np.asarray(a, np.float64) - np.asarray(b, np.float64) + 180.0) % 360.0 - 180.0)
+
+
+@cache
+def _pans(store: str) -> np.ndarray:
+    from synthcal.store import array_at, open_store
+
+    return np.asarray(array_at(open_store(store), "camera/pan_deg")[:], np.float64)
+
+
+@cache
+def _homographies(store: str) -> np.ndarray:
+    from synthcal.store import array_at, open_store
+
+    return np.asarray(array_at(open_store(store), "homography")[:], np.float64)
+
+
+@cache
+def _dictionary(store: str, seed: int, mixed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """A seed's dictionary: (K, 3, 3) homographies and (K,) pans, each from the store it was drawn from."""
+    from synthcal.store import read_mixed_dictionary, read_split_indices
+
+    if not mixed:
+        index = read_split_indices(store, "dictionary", seed)
+        return _homographies(store)[index], _pans(store)[index]
+    templates = read_mixed_dictionary(store, seed)
+    homographies = np.empty((len(templates.index), 3, 3))
+    pans = np.empty(len(templates.index))
+    for k, source in enumerate(templates.stores):
+        mask = templates.source == k
+        homographies[mask] = _homographies(str(source))[templates.index[mask]]
+        pans[mask] = _pans(str(source))[templates.index[mask]]
+    return homographies, pans
+
+
+def _picks(results: Path, run_id: str, record: Mapping[str, Any]) -> pd.DataFrame | None:
+    """Per test image of a run: its pool index, the template picked (-1: none) and that template's pan error."""
+    run = record["run"]
+    try:
+        per_image = pd.read_csv(results / "runs" / run_id / "metrics.csv", usecols=["pool_index", *_H_COLUMNS])
+        mixed = bool(run.get("mixed")) or str(run["dataset"]).startswith("mixed-")
+        homographies, pans = _dictionary(str(run["store"]), int(run["seed"]), mixed)
+        test_pans = _pans(str(run["store"]))[per_image["pool_index"].to_numpy()]
+    except (OSError, ValueError, KeyError, IndexError):  # StoreError is a ValueError
+        return None
+    picked = identify_templates(per_image[_H_COLUMNS].to_numpy().reshape(-1, 3, 3), homographies)
+    if (picked < 0).all():
+        return None
+    error = np.where(picked >= 0, pan_error_deg(pans[np.maximum(picked, 0)], test_pans), np.nan)
+    return pd.DataFrame({"pool_index": per_image["pool_index"], "picked": picked, "pan_error": error})
+
+
+def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: bool = True) -> pd.DataFrame:
+    """Agreement with ``oracle-template`` and pan errors of the retrievers' templates (module docstring).
+
+    Args:
+        frame: per-run results (:func:`synthcal.eval.harness.collect_results`: ``run_id``, ``dataset``,
+            ``model``, ``seed``, ``matching_score``, ``segmentation``, ``profile``).
+        results: the results folder (records, ``metrics.csv``; the stores they name).
+        mixed_only: only mixed-dictionary datasets (``mixed-*``).
+
+    Returns:
+        One row per dataset, matching score, segmentation, profile and retriever: ``seeds`` (with a
+        template identified), ``agreement`` (percent; NaN without an ``oracle-template`` run of the seed),
+        ``pan_error`` and ``oracle_pan_error`` (degrees; NaN where missing). Empty where nothing applies.
+    """
+    from synthcal.eval.harness import read_record
+
+    results = Path(results)
+    keys = ["dataset", "matching_score", "segmentation", "profile"]
+    runs = frame[frame["model"].isin([*RETRIEVERS, ORACLE])].drop_duplicates("run_id")
+    if mixed_only:
+        runs = runs[runs["dataset"].astype(str).str.startswith("mixed-")]
+    columns = [*keys, "model", "seeds", "agreement", "pan_error", "oracle_pan_error"]
+    if not runs["model"].isin(RETRIEVERS).any():
+        return pd.DataFrame(columns=columns)
+    picks: dict[str, pd.DataFrame | None] = {}
+    for run_id in runs["run_id"]:
+        record = read_record(results / "runs" / str(run_id) / "run.json")
+        picks[str(run_id)] = None if record is None else _picks(results, str(run_id), record)
+    runs = runs.assign(_key=runs[keys].astype(str).agg(" / ".join, axis=1))
+    rows = []
+    for (key, model), group in runs[runs["model"].isin(RETRIEVERS)].groupby(["_key", "model"], sort=False):
+        per_seed = []
+        for run_id, seed in zip(group["run_id"], group["seed"], strict=True):
+            own = picks.get(str(run_id))
+            if own is None:
+                continue
+            oracle_ids = runs.loc[(runs["_key"] == key) & (runs["model"] == ORACLE) & (runs["seed"] == seed), "run_id"]
+            oracle = picks.get(str(oracle_ids.iloc[0])) if len(oracle_ids) else None
+            agreement, oracle_error = np.nan, np.nan
+            if oracle is not None:
+                both = own.merge(oracle, on="pool_index", suffixes=("", "_oracle"))
+                both = both[(both["picked"] >= 0) & (both["picked_oracle"] >= 0)]
+                agreement = 100.0 * float((both["picked"] == both["picked_oracle"]).mean()) if len(both) else np.nan
+                oracle_error = float(np.nanmedian(oracle["pan_error"]))
+            per_seed.append((agreement, float(np.nanmedian(own["pan_error"])), oracle_error))
+        if per_seed:
+            values = np.array(per_seed, dtype=float)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns (no oracle run) stay NaN
+                summary = (np.nanmean(values[:, 0]), np.nanmedian(values[:, 1]), np.nanmedian(values[:, 2]))
+            rows.append({**dict(zip(keys, key.split(" / "), strict=True)), "model": model, "seeds": len(per_seed),
+                         "agreement": summary[0], "pan_error": summary[1], "oracle_pan_error": summary[2]})
+    return pd.DataFrame(rows, columns=columns)
+
+
+def format_diagnostics(diagnostics: pd.DataFrame, oracle_cells: Mapping[str, str], fmt: str = "md") -> str:
+    """The diagnostics as lines under a mixed table ("" if there are none).
+
+    Args:
+        diagnostics: :func:`template_diagnostics`.
+        oracle_cells: dataset label → the ``oracle-template`` cell as shown (mean ± std) in the table's reading.
+        fmt: ``md``, ``latex`` (lines as comments) or ``csv`` (nothing: the CSV holds one table).
+    """
+    if diagnostics.empty or fmt == "csv":
+        return ""
+    lines = []
+    for row in diagnostics.to_dict("records"):
+        def shown(value: float, unit: str) -> str:
+            return MISSING if pd.isna(value) else f"{value:.1f}{unit}"
+        lines.append(f"Template diagnostics, {row['dataset']} ({row['model']}, matching {row['matching_score']}, "
+                     f"segmentation {row['segmentation']}, {row['seeds']} seeds): the best-looking template is the "
+                     f"best-pose one ({ORACLE}'s) for {shown(row['agreement'], ' %')} of test images; median pan "
+                     f"error of the {row['model']} template {shown(row['pan_error'], '°')} ({ORACLE}'s "
+                     f"{shown(row['oracle_pan_error'], '°')}); {ORACLE} row: "
+                     f"{oracle_cells.get(str(row['dataset']), MISSING)}.")
+    return "\n".join(wrap_caption(line, fmt) for line in lines) + "\n"
+
+
+def oracle_cells(frame: pd.DataFrame, value: str) -> dict[str, str]:
+    """Dataset label → its ``oracle-template`` row in ``value`` as tables show it (``mean ± std``, per matching
+    score where there are several), for :func:`format_diagnostics`."""
+    from synthcal.eval.tables import aggregate
+
+    oracle = frame[frame["model"] == ORACLE].drop_duplicates(["dataset", "matching_score", "seed"])
+    if oracle.empty:
+        return {}
+    cells = aggregate(oracle, value)
+    out: dict[str, list[str]] = {}
+    for row in cells.to_dict("records"):
+        spread = "" if pd.isna(row["std"]) else f" ± {row['std']:.2f}"
+        out.setdefault(str(row["dataset"]), []).append(
+            f"{row['mean']:.2f}{spread} {value} (matching {row['matching_score']}, {row['n_seeds']} seeds)")
+    return {dataset: "; ".join(texts) for dataset, texts in out.items()}
+
+
+def diagnostics_text(frame: pd.DataFrame, results: str | Path | None, value: str, fmt: str) -> str:
+    """:func:`format_diagnostics` of the frame's mixed-dictionary runs ("" without a results folder or any)."""
+    if results is None or fmt == "csv" or "run_id" not in frame:
+        return ""
+    return format_diagnostics(template_diagnostics(frame, results), oracle_cells(frame, value), fmt)

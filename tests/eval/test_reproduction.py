@@ -1,0 +1,96 @@
+"""``synthcal table --layout report``: the paired CI and the verdict against a computation by hand."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from synthcal.cli import main
+from synthcal.eval.reproduction import verdict
+
+SEEDS = range(5)
+# Per loss: sha2020's per-seed IoU and proposed − sha2020 per seed (fractions), chosen so that the three
+# verdicts come out (the paper's proposed − sha2020 is positive in each cell).
+BASE = np.array([0.60, 0.62, 0.58, 0.61, 0.63])
+SHIFTS = {"top-mse": np.array([0.030, 0.025, 0.035, 0.020, 0.028]),  # CI well above 0
+          "mse": np.array([-0.030, -0.025, -0.035, -0.020, -0.028]),  # CI well below 0
+          "dice": np.array([0.004, -0.006, 0.002, -0.003, 0.001])}  # CI around 0, far from the paper's
+
+
+def _write_run(results: Path, model: str, loss: str | None, seed: int, iou: float, lr: float | None,
+               seconds: float, dataset: str = "intersection-1") -> None:
+    run_id = f"{dataset}_{model}_{loss}_s{seed}"
+    folder = results / "runs" / run_id
+    folder.mkdir(parents=True)
+    run = {"dataset": dataset, "model": model, "estimator": model, "seed": seed, "training": "step-by-step",
+           "loss": loss, "matching": "top-mse", "segmentation": "ground-truth", "profile": "quick"}
+    record = {"run": run, "id": run_id, "status": "ok", "seconds": seconds,
+              "summary": {"iou": iou, "completeness": 1.0, "n_images": 8},
+              "selection": {"chosen": {"learning_rate": lr, "stn_epochs": 10 + seed}} if lr else None}
+    (folder / "run.json").write_text(json.dumps(record))
+
+
+def _paper(model: str, loss: str) -> float:
+    """The published figure, read from the packaged CSV directly."""
+    paper = pd.read_csv(Path(__file__).parents[2] / "synthcal" / "data" / "paper_iou.csv")
+    hit = paper[(paper["dataset"] == "intersection-1") & (paper["model"] == model) & (paper["loss"] == loss)
+                & (paper["training"] == "step-by-step") & (paper["matching_score"] == "top-mse")]
+    return float(hit["iou_percent"].iloc[0])
+
+
+def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, capsys):
+    for loss, shift in SHIFTS.items():
+        for seed in SEEDS:
+            _write_run(tmp_path, "sha2020", loss, seed, BASE[seed], 0.001, 100.0 + seed)
+            _write_run(tmp_path, "proposed", loss, seed, BASE[seed] + shift[seed], 0.0003, 200.0 + 10 * seed)
+    _write_run(tmp_path, "proposed", "top-mse", 0, 0.7, None, 50.0, dataset="intersection-2")  # no sha2020 pair
+    assert main(["table", str(tmp_path), "--layout", "report", "--format", "csv"]) == 0
+    report = pd.read_csv(io.StringIO(capsys.readouterr().out), keep_default_na=False, na_values=[""])
+    expected = {"top-mse": "consistent with the paper", "mse": "opposite", "dice": "not reproduced"}
+    for loss, shift in SHIFTS.items():
+        row = report[(report["dataset"] == "intersection-1") & (report["loss"] == loss)
+                     & (report["model"] == "proposed")].iloc[0]
+        d = 100.0 * shift
+        half = stats.t.ppf(0.975, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d))
+        assert row["difference"] == pytest.approx(d.mean())
+        assert (row["t_low"], row["t_high"]) == pytest.approx((d.mean() - half, d.mean() + half))
+        assert row["p"] == pytest.approx(stats.ttest_rel(BASE + shift, BASE).pvalue)
+        assert row["wins"] == int((shift > 0).sum()) and row["n_pairs"] == 5
+        paper_difference = _paper("proposed", loss) - _paper("sha2020", loss)
+        assert row["paper"] == pytest.approx(_paper("proposed", loss))
+        assert row["paper_difference"] == pytest.approx(paper_difference)
+        assert row["verdict"] == expected[loss]
+        assert row["learning_rates"] == "0.0003, 0.0003, 0.0003, 0.0003, 0.0003"
+        assert row["stn_epochs"] == "10, 11, 12, 13, 14" and row["seconds"] == pytest.approx(220.0)
+        assert row["mean"] == pytest.approx(100.0 * np.mean(BASE + shift))
+        assert row["std"] == pytest.approx(100.0 * np.std(BASE + shift, ddof=1))
+    lone = report[report["dataset"] == "intersection-2"].iloc[0]
+    assert lone["verdict"] == "–" and np.isnan(lone["t_low"]) and lone["learning_rates"] == "–"
+    assert set(report.loc[report["model"] == "sha2020", "verdict"]) == {"–"}
+    # Markdown: the same cells, "–" where there is no pair.
+    assert main(["table", str(tmp_path), "--layout", "report"]) == 0
+    text = capsys.readouterr().out
+    assert "| intersection-2 | top-mse | proposed | 1 | 70.00 | – | – | – | – |" in text
+    assert "reproduced |" in text and "| reproduced" not in text
+
+
+@pytest.mark.parametrize("low, high, paper, expected", [
+    (1.0, 3.0, 2.0, "consistent with the paper"),  # contains d
+    (2.5, 3.0, 2.0, "consistent with the paper"),  # excludes 0 on d's side, not containing d
+    (-3.0, -2.5, -2.0, "consistent with the paper"),
+    (-1.0, 1.0, 2.0, "not reproduced"),
+    (-3.0, -0.1, 2.0, "opposite"),
+    (0.1, 3.0, -2.0, "opposite"),
+    (-1.0, 3.0, 2.0, "consistent with the paper"),  # too wide to tell 0 from d: rule 2 first
+    (0.5, 1.0, 0.0, "not reproduced"),  # no claimed difference, one found
+    (np.nan, np.nan, 2.0, "–"),
+    (-1.0, 1.0, np.nan, "–"),
+])
+def test_verdict_rules(low, high, paper, expected):
+    assert verdict(low, high, paper) == expected

@@ -1,0 +1,100 @@
+"""Template diagnostics: the template a run picked, found from its stored estimates, and its pan error."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import zarr
+
+from synthcal.data import load_split
+from synthcal.eval.harness import collect_results
+from synthcal.eval.templates import format_diagnostics, identify_templates, template_diagnostics
+from synthcal.generate.splits import draw_splits
+
+H_COLUMNS = [f"h{i}{j}" for i in range(3) for j in range(3)]
+
+
+def test_identify_templates_up_to_scale_and_sign():
+    rng = np.random.default_rng(0)
+    dictionary = rng.normal(size=(20, 3, 3))
+    picks = np.array([3, 0, 19, 7, 7])
+    scales = np.array([2.5, -0.1, 1e3, -7.0, 1.0])
+    estimates = dictionary[picks] * scales[:, None, None]
+    estimates = np.concatenate([estimates, np.full((1, 3, 3), np.nan), rng.normal(size=(1, 3, 3))])
+    assert identify_templates(estimates, dictionary).tolist() == [3, 0, 19, 7, 7, -1, -1]
+
+
+def _fake_run(results: Path, store: Path, model: str, test, estimates: np.ndarray) -> None:
+    run_id = f"intersection-1_{model}_s0"
+    folder = results / "runs" / run_id
+    folder.mkdir(parents=True)
+    run = {"dataset": "intersection-1", "store": str(store), "mixed": None, "model": model, "estimator": model,
+           "seed": 0, "training": None, "loss": None, "matching": "top-mse", "segmentation": "ground-truth",
+           "profile": "smoke"}
+    (folder / "run.json").write_text(json.dumps({"run": run, "id": run_id, "status": "ok",
+                                                 "summary": {"iou": 0.5, "completeness": 1.0, "n_images": 8}}))
+    per_image = pd.DataFrame(estimates.reshape(-1, 9), columns=H_COLUMNS)
+    per_image.insert(0, "pool_index", np.asarray(test.indices))
+    per_image.to_csv(folder / "metrics.csv", index=False)
+
+
+def test_agreement_and_pan_error_against_the_store(smoke_stores, tmp_path):
+    store = smoke_stores.copy(["intersection-1"], tmp_path / "data")["intersection-1"]
+    draw_splits(store, seeds=[0])
+    dictionary, test = load_split(store, "dictionary", 0), load_split(store, "test", 0)
+    rng = np.random.default_rng(1)
+    n, k = len(test.indices), len(dictionary.indices)
+    retrieved = rng.integers(0, k, n)
+    oracle = retrieved.copy()
+    oracle[::3] = (oracle[::3] + 1) % k  # a third picked differently
+    scale = rng.uniform(0.5, 2.0, n)[:, None, None]
+    estimates = dictionary.homographies[retrieved] * scale
+    estimates[0] = np.nan  # a failed image: no template
+    results = tmp_path / "results"
+    _fake_run(results, store, "retrieved", test, estimates)
+    _fake_run(results, store, "oracle-template", test, dictionary.homographies[oracle])
+    _fake_run(results, store, "proposed", test, estimates + 1.0)  # not a retriever: ignored
+    diagnostics = template_diagnostics(collect_results(results), results, mixed_only=False)
+    assert diagnostics["model"].tolist() == ["retrieved"]
+    row = diagnostics.iloc[0]
+    both = np.arange(1, n)  # image 0 has no retrieved template
+    assert row["agreement"] == pytest.approx(100.0 * np.mean(retrieved[both] == oracle[both]))
+    # Pans read straight from the store, the wrap done with complex numbers.
+    pans = zarr.open_group(str(store), mode="r")["camera/pan_deg"][:]
+    template_pans, test_pans = pans[np.asarray(dictionary.indices)], pans[np.asarray(test.indices)]
+
+    def error(picks: np.ndarray) -> np.ndarray:
+        return np.abs(np.rad2deg(np.angle(np.exp(1j * np.deg2rad(template_pans[picks] - test_pans)))))
+    assert np.ptp(error(retrieved)) > 1.0  # pans that differ: the median means something
+    assert row["pan_error"] == pytest.approx(np.median(error(retrieved)[both]))
+    assert row["oracle_pan_error"] == pytest.approx(np.median(error(oracle)))
+    text = format_diagnostics(diagnostics, {"intersection-1": "61.00 ± 1.00"})
+    assert f"for {row['agreement']:.1f} %" in text and "61.00 ± 1.00" in text.replace("\n", " ")
+
+
+def test_mixed_dictionary_templates_take_their_pose_from_their_source_store(smoke_stores, tmp_path):
+    names = ["intersection-1", "intersection-2", "intersection-3", "intersection-4", "intersection-5"]
+    stores = smoke_stores.copy(names, tmp_path / "data")
+    draw_splits(stores["intersection-1"], seeds=[0], mixed=True)
+    dictionary = load_split(stores["intersection-1"], "dictionary", 0, mixed=True)
+    test = load_split(stores["intersection-1"], "test", 0)
+    assert len(set(dictionary.source.tolist())) > 1  # templates from several stores
+    picks = np.arange(len(test.indices)) % len(dictionary.indices)
+    results = tmp_path / "results"
+    _fake_run(results, stores["intersection-1"], "retrieved", test, dictionary.homographies[picks] * 3.0)
+    record = results / "runs" / "intersection-1_retrieved_s0" / "run.json"
+    edited = json.loads(record.read_text())
+    edited["run"].update(dataset="mixed-1", mixed=True)
+    record.write_text(json.dumps(edited))
+    diagnostics = template_diagnostics(collect_results(results), results)
+    assert diagnostics["dataset"].tolist() == ["mixed-1"] and np.isnan(diagnostics["agreement"].iloc[0])
+    pans = {k: zarr.open_group(str(path), mode="r")["camera/pan_deg"][:]
+            for k, path in enumerate(dictionary.source_stores)}
+    template_pans = np.array([pans[s][i] for s, i in zip(dictionary.source, dictionary.indices, strict=True)])
+    test_pans = zarr.open_group(str(stores["intersection-1"]), mode="r")["camera/pan_deg"][:][np.asarray(test.indices)]
+    errors = np.abs(np.rad2deg(np.angle(np.exp(1j * np.deg2rad(template_pans[picks] - test_pans)))))
+    assert diagnostics["pan_error"].iloc[0] == pytest.approx(np.median(errors))

@@ -37,8 +37,9 @@ A verdict judges the paper's *claim* for a cell, its difference
    interval excludes 0.
 
 Rule 2 comes first, so an interval wide enough to hold both 0 and ``d`` counts
-as consistent: it cannot tell them apart, and its width (and p) is printed
-beside the verdict. The verdict never reads "reproduced": a mean that lands near
+as consistent, but it says so: "consistent with the paper (and with no
+difference)" (:data:`UNDECIDED`), because such an interval cannot tell the
+paper's claim from no effect; its width and p are printed beside it. The verdict never reads "reproduced": a mean that lands near
 the paper's figure proves nothing the interval does not.
 """
 
@@ -66,11 +67,13 @@ from synthcal.eval.tables import (
     wrap_caption,
 )
 
-__all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "verdict", "run_choices", "report_frame", "format_report"]
+__all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "UNDECIDED", "verdict", "run_choices", "report_frame", "format_report"]
 
 BASELINE = "sha2020"
 CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
 VERDICTS = ("consistent with the paper", "not reproduced", "opposite")
+#: Rule 2 met by an interval that also holds 0: consistent with the claim and with no effect alike.
+UNDECIDED = f"{VERDICTS[0]} (and with no difference)"
 # The CSV's columns after the keys (the Markdown shows them in words).
 NUMBERS = ("n_seeds", "mean", "std", "difference", "t_low", "t_high", "p", "n_pairs", "wins", "paper",
            "paper_difference", "learning_rates", "stn_epochs", "seconds", "verdict")
@@ -84,16 +87,16 @@ def verdict(low: float, high: float, paper_difference: float) -> str:
         paper_difference: the paper's figure minus its Sha et al. figure, points (NaN: no claim).
 
     Returns:
-        One of :data:`VERDICTS`, or "–" where there is no verdict.
+        One of :data:`VERDICTS`, :data:`UNDECIDED`, or "–" where there is no verdict.
 
     >>> verdict(0.5, 3.0, 2.1), verdict(-1.0, 0.8, 2.1), verdict(-4.0, -0.2, 2.1), verdict(-1.0, 5.0, 2.1)
-    ('consistent with the paper', 'not reproduced', 'opposite', 'consistent with the paper')
+    ('consistent with the paper', 'not reproduced', 'opposite', 'consistent with the paper (and with no difference)')
     """
     if any(pd.isna(v) for v in (low, high, paper_difference)):
         return MISSING
     d = paper_difference
     if low <= d <= high or (d > 0 and low > 0) or (d < 0 and high < 0):
-        return VERDICTS[0]
+        return UNDECIDED if low <= 0 <= high else VERDICTS[0]
     if (d > 0 and high < 0) or (d < 0 and low > 0):
         return VERDICTS[2]
     return VERDICTS[1]
@@ -246,7 +249,8 @@ def report_caption(value: str, constants: Mapping[str, str]) -> str:
             f"figure (a UNet's segmentation, the paper's own training; SPEC §7), paper − {BASELINE}: its difference "
             f"for the same cell. lr, STN epochs: what validation chose, per seed in seed order; s/run: median "
             f"seconds of a run. Verdict, from the 95 % CI [lo, hi] and the paper's difference d only: consistent "
-            f"with the paper if lo ≤ d ≤ hi or the CI excludes 0 on d's side; opposite if it excludes 0 on the "
+            f"with the paper if lo ≤ d ≤ hi or the CI excludes 0 on d's side ('and with no difference' when it also "
+            f"holds 0); opposite if it excludes 0 on the "
             f"other side; not reproduced otherwise (the CI holds 0 but not d); – without a claim or a CI.")
     if constants:
         text += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."

@@ -87,7 +87,7 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
     (-1.0, 1.0, 2.0, "not reproduced"),
     (-3.0, -0.1, 2.0, "opposite"),
     (0.1, 3.0, -2.0, "opposite"),
-    (-1.0, 3.0, 2.0, "consistent with the paper"),  # too wide to tell 0 from d: rule 2 first
+    (-1.0, 3.0, 2.0, "consistent with the paper (and with no difference)"),  # too wide to tell 0 from d
     (0.5, 1.0, 0.0, "not reproduced"),  # no claimed difference, one found
     (np.nan, np.nan, 2.0, "–"),
     (-1.0, 1.0, np.nan, "–"),

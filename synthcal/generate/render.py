@@ -185,11 +185,11 @@ def supersampled(homography: np.ndarray, supersample: int) -> np.ndarray:
 
 
 def _rounded_quotient(m: np.ndarray, xs: np.ndarray, ys: np.ndarray, reciprocal: np.ndarray,
-                      out: np.ndarray) -> np.ndarray:
+                      out: np.ndarray) -> None:
     """``rint(((m[1] y + m[2]) + m[0] x) · reciprocal)`` over the (h, w) grid, into ``out``."""
     np.add(m[1] * ys + m[2], m[0] * xs, out=out)
     np.multiply(out, reciprocal, out=out)
-    return np.rint(out, out=out)
+    np.rint(out, out=out)
 
 
 def _scene_lookup(
@@ -211,15 +211,15 @@ def _scene_lookup(
     ys = np.arange(rows.start, rows.stop, dtype=np.float64)[:, None]
     depth = (M[2, 1] * ys + M[2, 2]) + M[2, 0] * xs
     scene_height, scene_width = scene_shape
-    # The same float64 expressions as ``row = rint(((m11 y + m12) + m10 x) / depth)``, but
-    # evaluated into two reused (h, w) buffers: the temporaries cost a third of the lookup.
+    # The same float64 expressions as ``row = rint(((m11 y + m12) + m10 x) * (1 / depth))``,
+    # evaluated into two reused (h, w) buffers (≈ 10 % of the lookup went on temporaries).
     # Where depth ≤ 0 the quotients are meaningless (even inf or NaN): ``inside``
     # rejects those pixels, and whatever their casts give is zeroed below.
     inside = depth > 0
-    col = np.empty_like(depth)
+    row, col = np.empty_like(depth), np.empty_like(depth)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         reciprocal = np.divide(1.0, depth, out=depth)
-        row = _rounded_quotient(M[1], xs, ys, reciprocal, out=np.empty_like(depth))
+        _rounded_quotient(M[1], xs, ys, reciprocal, out=row)
         inside &= row >= 0
         inside &= row < scene_height
         _rounded_quotient(M[0], xs, ys, reciprocal, out=col)

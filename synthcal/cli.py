@@ -219,19 +219,28 @@ CONFIRM_SECONDS = 600.0
 
 
 def _preview_generation(specs: Sequence[DatasetSpec], args: argparse.Namespace) -> bool:
-    """One line per store to generate (samples, disk, time here, measured); whether to go on."""
+    """One line per store to generate (samples, disk, time here, measured); whether to go on.
+
+    Off a terminal or with ``--yes`` nothing is asked, so nothing is measured either
+    (8 samples rendered cost ~0.2 s per store): the line gives the samples only.
+    """
     from synthcal.generate.pipeline import store_path
     from synthcal.generate.preview import estimate_generation
 
     workers = 1 if args.scheduler else args.workers
+    where = "on the cluster: unknown; here with 1 worker" if args.scheduler else \
+        f"here with {workers} worker{'s' if workers > 1 else ''}"
+    asking = _can_ask(args)
     total_bytes = total_seconds = 0.0
     for spec in specs:
         if store_path(args.out, spec.name).exists():  # reported as already complete afterwards
             continue
+        if not asking:
+            print(f"{spec.name}: {spec.pool_size:,} samples {where} (disk and time not estimated: "
+                  "nothing to ask with --yes or off a terminal)", flush=True)
+            continue
         estimate = estimate_generation(spec, args.out, workers)
         resumed = f" ({estimate.remaining:,} still to render)" if estimate.remaining < estimate.samples else ""
-        where = "on the cluster: unknown; here with 1 worker" if args.scheduler else \
-            f"here with {workers} worker{'s' if workers > 1 else ''}"
         print(f"{spec.name}: {estimate.samples:,} samples{resumed}, about {_size(estimate.bytes)} on disk, "
               f"about {_duration(estimate.seconds)} {where} (measured on {min(8, estimate.samples)} samples)",
               flush=True)
@@ -259,11 +268,16 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def _confirm(args: argparse.Namespace, question: str) -> bool:
-    """Ask ``question`` on a terminal (standard input and error both); off one, or with ``--yes``, go on."""
+def _can_ask(args: argparse.Namespace) -> bool:
+    """Whether a question can be asked: no ``--yes``, standard input and error on a terminal."""
     from synthcal.utils.progress import interactive
 
-    if args.yes or not (interactive(sys.stdin) and interactive(sys.stderr)):
+    return not args.yes and interactive(sys.stdin) and interactive(sys.stderr)
+
+
+def _confirm(args: argparse.Namespace, question: str) -> bool:
+    """Ask ``question`` on a terminal (standard input and error both); off one, or with ``--yes``, go on."""
+    if not _can_ask(args):
         return True
     print(f"{question} [y/N] (--yes skips this question) ", end="", file=sys.stderr, flush=True)
     try:

@@ -49,23 +49,32 @@ def store_bytes(store: Path) -> int:
 
 # --- item 3: a preview before a run --------------------------------------------------------------
 
-def test_generate_previews_off_a_terminal_never_asks_and_a_rerun_is_already_complete(tmp_path, monkeypatch,
-                                                                                        capsys):
+def test_generate_off_a_terminal_never_asks_nor_measures_and_a_rerun_is_already_complete(tmp_path, monkeypatch,
+                                                                                          capsys):
     monkeypatch.setattr(cli, "CONFIRM_SECONDS", 0.0)  # every run is "big": only the terminal decides
     monkeypatch.setattr(cli, "CONFIRM_BYTES", 0.0)
     monkeypatch.setattr("builtins.input", never_asked)
+    monkeypatch.setattr("synthcal.generate.preview.estimate_generation", never_asked)  # no question, no measuring
     assert main(generate(tmp_path, "--profile", "smoke")) == 0
     preview, done = capsys.readouterr().out.splitlines()
-    assert preview.startswith("intersection-1: 48 samples, about ") and "on disk" in preview
-    assert "here with 1 worker" in preview
+    assert preview.startswith("intersection-1: 48 samples here with 1 worker") and "not estimated" in preview
     assert done.startswith(f"{tmp_path / 'intersection-1.zarr'}  48 samples  ") and done.endswith(" s")
+
+    assert main(generate(tmp_path, "--profile", "smoke")) == 0  # nothing to do: no preview, no time
+    assert capsys.readouterr().out.splitlines() == [f"{tmp_path / 'intersection-1.zarr'}  48 samples  already complete"]
+
+
+def test_generate_on_a_terminal_measures_the_disk_it_will_take(tmp_path, terminal, monkeypatch, capsys):
+    monkeypatch.setattr(cli, "CONFIRM_BYTES", 0.0)  # asks, and is answered yes
+    terminal("y")
+    assert main(generate(tmp_path, "--profile", "smoke")) == 0
+    preview = capsys.readouterr().out.splitlines()[0]
+    assert preview.startswith("intersection-1: 48 samples, about ") and "on disk" in preview
+    assert "here with 1 worker (measured on 8 samples)" in preview
     # The disk estimate, from 8 samples compressed in memory, against what the store holds.
     number, unit = preview.split("about ")[1].split(" on disk")[0].split()
     estimated = float(number) * {"kB": 1e3, "MB": 1e6}[unit]
     assert 0.5 < estimated / store_bytes(tmp_path / "intersection-1.zarr") < 2
-
-    assert main(generate(tmp_path, "--profile", "smoke")) == 0  # nothing to do: no preview, no time
-    assert capsys.readouterr().out.splitlines() == [f"{tmp_path / 'intersection-1.zarr'}  48 samples  already complete"]
 
 
 def test_a_big_generate_asks_on_a_terminal_and_no_writes_nothing(tmp_path, terminal, capsys):

@@ -184,6 +184,14 @@ def supersampled(homography: np.ndarray, supersample: int) -> np.ndarray:
     return A @ homography
 
 
+def _rounded_quotient(m: np.ndarray, xs: np.ndarray, ys: np.ndarray, reciprocal: np.ndarray,
+                      out: np.ndarray) -> None:
+    """``rint(((m[1] y + m[2]) + m[0] x) · reciprocal)`` over the (h, w) grid, into ``out``."""
+    np.add(m[1] * ys + m[2], m[0] * xs, out=out)
+    np.multiply(out, reciprocal, out=out)
+    np.rint(out, out=out)
+
+
 def _scene_lookup(
     M: np.ndarray, rows: slice, width: int, scene_shape: tuple[int, int]
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -203,13 +211,20 @@ def _scene_lookup(
     ys = np.arange(rows.start, rows.stop, dtype=np.float64)[:, None]
     depth = (M[2, 1] * ys + M[2, 2]) + M[2, 0] * xs
     scene_height, scene_width = scene_shape
+    # The same float64 expressions as ``row = rint(((m11 y + m12) + m10 x) * (1 / depth))``,
+    # evaluated into two reused (h, w) buffers (≈ 10 % of the lookup went on temporaries).
     # Where depth ≤ 0 the quotients are meaningless (even inf or NaN): ``inside``
     # rejects those pixels, and whatever their casts give is zeroed below.
+    inside = depth > 0
+    row, col = np.empty_like(depth), np.empty_like(depth)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        reciprocal = 1.0 / depth
-        col = np.rint(((M[0, 1] * ys + M[0, 2]) + M[0, 0] * xs) * reciprocal)
-        row = np.rint(((M[1, 1] * ys + M[1, 2]) + M[1, 0] * xs) * reciprocal)
-        inside = (depth > 0) & (col >= 0) & (col < scene_width) & (row >= 0) & (row < scene_height)
+        reciprocal = np.divide(1.0, depth, out=depth)
+        _rounded_quotient(M[1], xs, ys, reciprocal, out=row)
+        inside &= row >= 0
+        inside &= row < scene_height
+        _rounded_quotient(M[0], xs, ys, reciprocal, out=col)
+        inside &= col >= 0
+        inside &= col < scene_width
         index_type = np.int32 if scene_height * scene_width < 2**31 else np.int64
         flat = row.astype(index_type)
         flat *= scene_width
@@ -418,7 +433,10 @@ def apply_appearance_on_ground(
     rows = depths.ground_rows()
     if rows.start < rows.stop:
         image[rows] = apply_appearance(image[rows], appearance, rng)
-        depths.mask(image)  # blur and brightness reach past the horizon within a row
-        if on_scene is not None:  # cv2.copyTo: ~10× faster than image[~on_scene] = 0
+        # Blur and brightness reach past the horizon within a row. ``on_scene`` lies inside the
+        # visible half-plane (its depths are the same float sums), so it blacks out both.
+        if on_scene is None:
+            depths.mask(image)
+        else:  # cv2.copyTo: ~10× faster than image[~on_scene] = 0
             image[...] = cv2.copyTo(image, np.ascontiguousarray(on_scene, np.uint8), np.zeros_like(image))
     return image

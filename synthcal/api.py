@@ -27,7 +27,8 @@ if TYPE_CHECKING:
     from synthcal.config import LoadedConfig
     from synthcal.data.loaders import SplitDataset
 
-__all__ = ["load_config", "generate_store", "open_store", "load_split", "evaluate", "evaluate_images", "bench"]
+__all__ = ["load_config", "generate_store", "open_store", "load_split", "evaluate", "evaluate_images", "bench",
+           "segmentation_quality"]
 
 
 def load_config(path: str | Path | None = None) -> LoadedConfig:
@@ -288,3 +289,89 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
                        dictionary={label: loaded.dictionary(label, profile) for label in datasets})
     frame = run_sweep(runs, results, progress=progress, timeout=timeout, workers=workers)
     return frame[frame["run_id"].isin({run.id for run in runs})].reset_index(drop=True)
+
+
+def segmentation_quality(results: str | Path, data: str | Path | None = None, *, device: str = "cpu",
+                         batch_size: int = 64) -> pd.DataFrame:
+    """The UNets a results folder caches, scored on the test split of their seed (issue 27).
+
+    Each finished run of a bundled paper model trained ``step-by-step`` under
+    ``segmentation: unet`` (:func:`synthcal.eval.segmentation.unet_records`) names
+    its UNet by the key its estimator gave it (:mod:`synthcal.estimators.paper`,
+    ``cache_dir``: the train split's arrays, sizes and code hash, the UNet's
+    settings, the learning rate validation chose, the seed); runs sharing a UNet
+    (every model of one seed) are scored once. The UNet segments the run's test
+    split at the working resolution, as the pipeline reads it, against the true
+    maps reduced to it as the UNet was trained.
+
+    Args:
+        results: the results folder of :func:`bench` (``runs/``, ``cache/unet/``).
+        data: the folder holding the stores ``NAME.zarr``; None: where each run
+            recorded its store.
+        device: torch device for the UNet.
+        batch_size: test images per forward pass.
+
+    Returns:
+        one row per UNet: ``dataset``, ``seed``, ``unet`` (its cache key),
+        ``n_images``, ``work_size``, then :func:`synthcal.eval.segmentation.quality_row`'s
+        columns (fractions; class names from the store's scene).
+
+    Raises:
+        FileNotFoundError: no such results folder, or a run's UNet absent from its cache (names the file).
+        ValueError: no run in it reads a cached UNet.
+    """
+    import dataclasses
+
+    import numpy as np
+    import pandas as pd
+    import torch
+
+    from synthcal.config import TrainingSettings
+    from synthcal.data import read_scene
+    from synthcal.eval.harness import Run
+    from synthcal.eval.isolation import load_run_split
+    from synthcal.eval.segmentation import chosen_learning_rate, confusion_matrix, quality_row, unet_records
+    from synthcal.models import UNet, device_from_name
+    from synthcal.training import NUM_CLASSES, StageCache, digest, reduce_class_maps, reduce_images
+
+    if not Path(results).is_dir():
+        raise FileNotFoundError(f"{results}: no such results folder")
+    records = unet_records(results)
+    if not records:
+        raise ValueError(f"{results}: no finished step-by-step run of a bundled model with segmentation 'unet'")
+    cache, torch_device = StageCache(Path(results) / "cache"), device_from_name(device)
+    rows: dict[str, dict[str, Any]] = {}
+    for record in records:
+        run = Run(**record["run"])
+        if data is not None:
+            run = dataclasses.replace(run, store=str(Path(data) / Path(run.store).name))
+        s = TrainingSettings(**(run.settings or {}))
+        rate = chosen_learning_rate(record) or s.learning_rate
+        scene = read_scene(run.store)
+        train = load_run_split(run, "train", scene)
+        # The key PaperEstimator._data and _shared_stages give the UNet, from the run's recorded code hash.
+        semantics = np.asarray(train.semantics)[: s.max_train]
+        full_size = (semantics.shape[2], semantics.shape[1])
+        work_size = tuple(s.work_size or full_size)
+        train_key = digest(run.code.removeprefix("synthcal:"), semantics, np.asarray(train.images)[: len(semantics)],
+                           full_size, work_size)
+        key = digest("unet", train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
+        if key in rows:
+            continue
+        state = cache.load("unet", key)
+        if state is None:
+            raise FileNotFoundError(f"{cache.path('unet', key)}: no UNet for run {run.id} in its results' cache")
+        unet = UNet(num_classes=NUM_CLASSES, width=s.unet_width, depth=s.unet_depth)
+        unet.load_state_dict(state)
+        unet.to(torch_device).eval()
+        test = load_run_split(run, "test", scene)
+        confusion = np.zeros((NUM_CLASSES, NUM_CLASSES), np.int64)
+        for start in range(0, len(test), batch_size):
+            rgb = reduce_images(test.images[start:start + batch_size], work_size)
+            with torch.no_grad():
+                predicted = unet(rgb.to(torch_device).float().div_(255.0)).argmax(dim=1).cpu().numpy()
+            truth = reduce_class_maps(test.semantics[start:start + batch_size], work_size).numpy()
+            confusion += confusion_matrix(truth, predicted, NUM_CLASSES)
+        rows[key] = {"dataset": Path(run.store).name.removesuffix(".zarr"), "seed": run.seed, "unet": key, "n_images": len(test),
+                     "work_size": "×".join(map(str, work_size)), **quality_row(confusion, scene.classes)}
+    return pd.DataFrame(list(rows.values())).sort_values(["dataset", "seed"], kind="stable", ignore_index=True)

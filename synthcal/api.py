@@ -319,6 +319,21 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
     Raises:
         FileNotFoundError: no such results folder, or a run's UNet absent from its cache (names the file).
         ValueError: no run in it reads a cached UNet.
+
+    Example:
+        >>> import pathlib, tempfile, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> layer = pathlib.Path(tmp.name, "unet.yaml")  # the packaged smoke profile, with a UNet
+        >>> _ = layer.write_text("profiles: {smoke: {training: {segmentation: unet}}}")
+        >>> _ = synthcal.generate_store("intersection-1", f"{tmp.name}/data", profile="smoke")
+        >>> _ = synthcal.bench(f"{tmp.name}/data", ["intersection-1"], ["proposed"], f"{tmp.name}/results",
+        ...                    profile="smoke", config=layer, device="cpu")
+        >>> quality = synthcal.segmentation_quality(f"{tmp.name}/results")
+        >>> list(quality[["dataset", "seed", "n_images"]].itertuples(index=False, name=None))
+        [('intersection-1', 0, 8)]
+        >>> bool(0 <= quality["mean iou"][0] <= 1)
+        True
+        >>> tmp.cleanup()
     """
     import dataclasses
 

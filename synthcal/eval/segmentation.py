@@ -130,6 +130,11 @@ def seed_summary(frame: pd.DataFrame, decimals: int = 2) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["dataset", "seeds", *scores])
 
 
+def _percent(value: float, decimals: int) -> str:
+    """A fraction in percent, ``–`` for no score (NaN)."""
+    return "–" if np.isnan(value) else f"{100 * value:.{decimals}f}"
+
+
 def _mean_std(values: np.ndarray, decimals: int) -> str:
     if not len(values):
         return "–"
@@ -226,7 +231,7 @@ def format_quality(quality: pd.DataFrame, results: pd.DataFrame | None, fmt: str
     if fmt != "md":
         raise ValueError(f"format must be md or csv; got {fmt!r}")
     scores = [c for c in quality.columns if c.startswith(("iou ", "dice ", "mean ")) or c == "pixel accuracy"]
-    per_seed = quality.assign(**{c: (100 * quality[c]).round(decimals) for c in scores})
+    per_seed = quality.assign(**{c: [_percent(v, decimals) for v in quality[c]] for c in scores})
     blocks = ["### The UNet on the test split, per seed (%)\n",
               _markdown(per_seed.drop(columns=["unet"]), 2),
               "### Over seeds: mean ± std (%)\n", _markdown(seed_summary(quality, decimals), 1),

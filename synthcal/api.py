@@ -312,8 +312,9 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
         batch_size: test images per forward pass.
 
     Returns:
-        one row per UNet: ``dataset``, ``seed``, ``unet`` (its cache key),
-        ``n_images``, ``work_size``, then :func:`synthcal.eval.segmentation.quality_row`'s
+        one row per UNet: ``dataset``, ``seed``, ``models`` (the labels of the runs
+        that read it, comma-separated), ``learning_rate`` (it trained at), ``unet``
+        (its cache key), ``n_images``, ``work_size``, then :func:`synthcal.eval.segmentation.quality_row`'s
         columns (fractions; class names from the store's scene).
 
     Raises:
@@ -371,7 +372,8 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
         train_key = digest(run.code.removeprefix("synthcal:"), semantics, np.asarray(train.images)[: len(semantics)],
                            full_size, work_size)
         key = digest("unet", train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
-        if key in rows:
+        if key in rows:  # another model (or loss) of the same seed, on the same UNet
+            rows[key]["models"] = ", ".join(sorted({*rows[key]["models"].split(", "), run.model}))
             continue
         state = cache.load("unet", key)
         if state is None:
@@ -387,6 +389,7 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
                 predicted = unet(rgb.to(torch_device).float().div_(255.0)).argmax(dim=1).cpu().numpy()
             truth = reduce_class_maps(test.semantics[start:start + batch_size], work_size).numpy()
             confusion += confusion_matrix(truth, predicted, NUM_CLASSES)
-        rows[key] = {"dataset": Path(run.store).name.removesuffix(".zarr"), "seed": run.seed, "unet": key, "n_images": len(test),
+        rows[key] = {"dataset": Path(run.store).name.removesuffix(".zarr"), "seed": run.seed, "models": run.model,
+                     "learning_rate": rate, "unet": key, "n_images": len(test),
                      "work_size": "×".join(map(str, work_size)), **quality_row(confusion, scene.classes)}
     return pd.DataFrame(list(rows.values())).sort_values(["dataset", "seed"], kind="stable", ignore_index=True)

@@ -108,26 +108,46 @@ def quality_row(confusion: np.ndarray, names: Sequence[str]) -> dict[str, float]
 
 
 def seed_summary(frame: pd.DataFrame, decimals: int = 2) -> pd.DataFrame:
-    """Mean ± std over seeds of every score column, per dataset, in percent.
+    """Mean ± std over seeds of every score column, in percent, per dataset and set of UNets.
+
+    Models whose learning rate was chosen on validation may read different UNets on
+    one seed; each summary row is then the UNets some models read, labelled by them.
 
     Args:
-        frame: one row per (dataset, seed): ``dataset``, ``seed`` and the
-            :func:`quality_row` columns (fractions); other columns are dropped.
+        frame: one row per UNet: ``dataset``, ``seed``, optionally ``unet`` (an id)
+            and ``models`` (the comma-separated labels that read it; without them, one
+            group per dataset), and the :func:`quality_row` columns (fractions).
         decimals: of the printed numbers.
 
     Returns:
-        one row per dataset: ``dataset``, ``seeds`` (how many), then each score as
-        ``"mean ± std"`` (std with ``ddof=1``; a single seed shows its value alone).
+        one row per group: ``dataset``, ``models``, ``seeds`` (how many UNets), then
+        each score as ``"mean ± std"`` (std with ``ddof=1``; one value alone; ``–`` none).
     """
     scores = [c for c in frame.columns if c.startswith(("iou ", "dice ", "mean ")) or c == "pixel accuracy"]
     rows = []
-    for dataset, group in frame.groupby("dataset", sort=False):
-        row: dict[str, Any] = {"dataset": dataset, "seeds": len(group)}
+    for (dataset, models), group in _unet_groups(frame):
+        row: dict[str, Any] = {"dataset": dataset, "models": models, "seeds": len(group)}
         for column in scores:
-            values = 100 * group[column].dropna().to_numpy(np.float64)
-            row[column] = _mean_std(values, decimals)
+            row[column] = _mean_std(100 * group[column].dropna().to_numpy(np.float64), decimals)
         rows.append(row)
-    return pd.DataFrame(rows, columns=["dataset", "seeds", *scores])
+    return pd.DataFrame(rows, columns=["dataset", "models", "seeds", *scores])
+
+
+def _unet_groups(frame: pd.DataFrame) -> list[tuple[tuple[str, str], pd.DataFrame]]:
+    """``((dataset, models), rows)``: the models of a dataset that read the same UNets, grouped."""
+    if not {"unet", "models"} <= set(frame.columns):
+        return [((str(dataset), ""), group) for dataset, group in frame.groupby("dataset", sort=False)]
+    out = []
+    for dataset, group in frame.groupby("dataset", sort=False):
+        read: dict[str, set[str]] = {}
+        for unet, models in zip(group["unet"], group["models"], strict=True):
+            for model in str(models).split(", "):
+                read.setdefault(model, set()).add(unet)
+        shared: dict[frozenset[str], list[str]] = {}
+        for model, unets in sorted(read.items()):
+            shared.setdefault(frozenset(unets), []).append(model)
+        out += [((str(dataset), ", ".join(models)), group[group["unet"].isin(unets)]) for unets, models in shared.items()]
+    return out
 
 
 def _percent(value: float, decimals: int) -> str:
@@ -233,8 +253,8 @@ def format_quality(quality: pd.DataFrame, results: pd.DataFrame | None, fmt: str
     scores = [c for c in quality.columns if c.startswith(("iou ", "dice ", "mean ")) or c == "pixel accuracy"]
     per_seed = quality.assign(**{c: [_percent(v, decimals) for v in quality[c]] for c in scores})
     blocks = ["### The UNet on the test split, per seed (%)\n",
-              _markdown(per_seed.drop(columns=["unet"]), 2),
-              "### Over seeds: mean ± std (%)\n", _markdown(seed_summary(quality, decimals), 1),
+              _markdown(per_seed.drop(columns=["unet"]), 3),
+              "### Over seeds: mean ± std (%)\n", _markdown(seed_summary(quality, decimals), 2),
               f"Scores pool every test pixel at the working resolution; mean: over classes "
               f"{', '.join(map(str, FOREGROUND))} (not the background).\n"]
     if results is not None:

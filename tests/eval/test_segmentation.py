@@ -69,6 +69,16 @@ def test_seed_summary_is_mean_and_sample_std_in_percent():
     assert summary.loc["b", "pixel accuracy"] == "100.00"  # one seed: its value alone
 
 
+def test_models_that_read_different_unets_on_a_seed_are_summarised_apart():
+    # Seed 0: both models read UNet k0; seed 1: validation chose a different rate for each.
+    frame = pd.DataFrame({"dataset": ["a", "a", "a"], "seed": [0, 1, 1], "unet": ["k0", "k1", "k2"],
+                          "models": ["p, s", "p", "s"], "mean iou": [0.5, 0.6, 0.8]})
+    summary = seed_summary(frame).set_index("models")
+    assert list(summary["seeds"]) == [2, 2]
+    assert summary.loc["p", "mean iou"] == f"{55:.2f} ± {np.std([50, 60], ddof=1):.2f}"
+    assert summary.loc["s", "mean iou"] == f"{65:.2f} ± {np.std([50, 80], ddof=1):.2f}"
+
+
 # --- the command on a smoke bench -----------------------------------------------------------
 
 
@@ -89,7 +99,8 @@ def test_segmentation_prints_the_checkpoints_scores(unet_bench, smoke_config, ca
     data, results = unet_bench
     assert main(["segmentation", str(results), "--data", str(data), "--format", "csv"]) == 0
     printed = pd.read_csv(io.StringIO(capsys.readouterr().out))
-    assert list(printed[["dataset", "seed"]].itertuples(index=False, name=None)) == [("intersection-1", 0)]
+    assert list(printed[["dataset", "seed", "models"]].itertuples(index=False, name=None)) == [
+        ("intersection-1", 0, "proposed")]
     # Directly: the one UNet the bench cached, on the first test images the smoke profile uses.
     (checkpoint,) = (results / "cache" / "unet").glob("*.pt")
     settings = smoke_config.training("smoke").settings()
@@ -124,7 +135,8 @@ def test_segmentation_shows_the_readings_on_unet_and_true_maps_side_by_side(unet
     for segmentation in ("unet", "ground-truth"):
         expected = 100 * frame.loc[frame["segmentation"] == segmentation, "iou"].item()
         assert side[segmentation][0] == f"{expected:.2f}"
-    row = next(line for line in text.splitlines() if line.startswith("| intersection-1 | proposed |"))
+    side_table = text.split("on the UNet's maps beside the true maps")[1]
+    row = next(line for line in side_table.splitlines() if line.startswith("| intersection-1 | proposed |"))
     assert f"| {side['unet'][0]} | {side['ground-truth'][0]} |" in row
 
 

@@ -300,7 +300,8 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
     its UNet by the key its estimator gave it (:mod:`synthcal.estimators.paper`,
     ``cache_dir``: the train split's arrays, sizes and code hash, the UNet's
     settings, the learning rate validation chose, the seed); runs sharing a UNet
-    (every model of one seed) are scored once. The UNet segments the run's test
+    (every model and loss of one seed, unless validation chose them different
+    rates) are scored once. The UNet segments the run's test
     split at the working resolution, as the pipeline reads it, against the true
     maps reduced to it as the UNet was trained.
 
@@ -337,6 +338,7 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
         >>> tmp.cleanup()
     """
     import dataclasses
+    import json
 
     import numpy as np
     import pandas as pd
@@ -357,6 +359,7 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
         raise ValueError(f"{results}: no finished step-by-step run of a bundled model with segmentation 'unet'")
     cache, torch_device = StageCache(Path(results) / "cache"), device_from_name(device)
     rows: dict[str, dict[str, Any]] = {}
+    train_keys: dict[tuple[Any, ...], tuple[tuple[int, int], str]] = {}
     for record in records:
         run = Run(**record["run"])
         if data is not None:
@@ -364,13 +367,18 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
         s = TrainingSettings(**(run.settings or {}))
         rate = chosen_learning_rate(record) or s.learning_rate
         scene = read_scene(run.store)
-        train = load_run_split(run, "train", scene)
-        # The key PaperEstimator._data and _shared_stages give the UNet, from the run's recorded code hash.
-        semantics = np.asarray(train.semantics)[: s.max_train]
-        full_size = (semantics.shape[2], semantics.shape[1])
-        work_size = tuple(s.work_size or full_size)
-        train_key = digest(run.code.removeprefix("synthcal:"), semantics, np.asarray(train.images)[: len(semantics)],
-                           full_size, work_size)
+        # The key PaperEstimator._data and _shared_stages give the UNet, from the run's recorded code hash;
+        # the train split's digest is the slow part, and every model and loss of a seed shares it.
+        split = (run.store, run.seed, json.dumps(run.limits, sort_keys=True), s.max_train, s.work_size, run.code)
+        if split not in train_keys:
+            train = load_run_split(run, "train", scene)
+            semantics = np.asarray(train.semantics)[: s.max_train]
+            full_size = (semantics.shape[2], semantics.shape[1])
+            width, height = s.work_size or full_size
+            work_size = (int(width), int(height))
+            train_keys[split] = work_size, digest(run.code.removeprefix("synthcal:"), semantics,
+                                                  np.asarray(train.images)[: len(semantics)], full_size, work_size)
+        work_size, train_key = train_keys[split]
         key = digest("unet", train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
         if key in rows:  # another model (or loss) of the same seed, on the same UNet
             rows[key]["models"] = ", ".join(sorted({*rows[key]["models"].split(", "), run.model}))

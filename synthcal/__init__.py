@@ -37,14 +37,24 @@ EXPORTS: dict[str, str] = {
     "evaluate": "synthcal.api:evaluate",
     "evaluate_images": "synthcal.api:evaluate_images",
     "bench": "synthcal.api:bench",
+    "segmentation_quality": "synthcal.api:segmentation_quality",
 }
 
 # Written out (not derived from EXPORTS) so that linters and IDEs read it; tests/test_api.py holds the two equal.
 __all__ = ["__version__", "load_config", "generate_store", "open_store", "load_split", "SplitDataset", "Estimator",
-           "evaluate", "evaluate_images", "bench"]
+           "evaluate", "evaluate_images", "bench", "segmentation_quality"]
 
 if TYPE_CHECKING:
-    from synthcal.api import bench, evaluate, evaluate_images, generate_store, load_config, load_split, open_store
+    from synthcal.api import (
+        bench,
+        evaluate,
+        evaluate_images,
+        generate_store,
+        load_config,
+        load_split,
+        open_store,
+        segmentation_quality,
+    )
     from synthcal.data.loaders import SplitDataset
     from synthcal.estimators.protocol import Estimator
 

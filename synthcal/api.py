@@ -27,7 +27,8 @@ if TYPE_CHECKING:
     from synthcal.config import LoadedConfig
     from synthcal.data.loaders import SplitDataset
 
-__all__ = ["load_config", "generate_store", "open_store", "load_split", "evaluate", "evaluate_images", "bench"]
+__all__ = ["load_config", "generate_store", "open_store", "load_split", "evaluate", "evaluate_images", "bench",
+           "segmentation_quality"]
 
 
 def load_config(path: str | Path | None = None) -> LoadedConfig:
@@ -288,3 +289,115 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
                        dictionary={label: loaded.dictionary(label, profile) for label in datasets})
     frame = run_sweep(runs, results, progress=progress, timeout=timeout, workers=workers)
     return frame[frame["run_id"].isin({run.id for run in runs})].reset_index(drop=True)
+
+
+def segmentation_quality(results: str | Path, data: str | Path | None = None, *, device: str = "cpu",
+                         batch_size: int = 64) -> pd.DataFrame:
+    """The UNets a results folder caches, scored on the test split of their seed (issue 27).
+
+    Each finished run of a bundled paper model trained ``step-by-step`` under
+    ``segmentation: unet`` (:func:`synthcal.eval.segmentation.unet_records`) names
+    its UNet by the key its estimator gave it (:mod:`synthcal.estimators.paper`,
+    ``cache_dir``: the train split's arrays, sizes and code hash, the UNet's
+    settings, the learning rate validation chose, the seed); runs sharing a UNet
+    (every model and loss of one seed, unless validation chose them different
+    rates) are scored once. The UNet segments the run's test
+    split at the working resolution, as the pipeline reads it, against the true
+    maps reduced to it as the UNet was trained.
+
+    Args:
+        results: the results folder of :func:`bench` (``runs/``, ``cache/unet/``).
+        data: the folder holding the stores ``NAME.zarr``; None: where each run
+            recorded its store.
+        device: torch device for the UNet.
+        batch_size: test images per forward pass.
+
+    Returns:
+        one row per UNet: ``dataset``, ``seed``, ``models`` (the labels of the runs
+        that read it, comma-separated), ``learning_rate`` (it trained at), ``unet``
+        (its cache key), ``n_images``, ``work_size``, then :func:`synthcal.eval.segmentation.quality_row`'s
+        columns (fractions; class names from the store's scene).
+
+    Raises:
+        FileNotFoundError: no such results folder, or a run's UNet absent from its cache (names the file).
+        ValueError: no run in it reads a cached UNet.
+
+    Example:
+        >>> import pathlib, tempfile, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> layer = pathlib.Path(tmp.name, "unet.yaml")  # the packaged smoke profile, with a UNet
+        >>> _ = layer.write_text("profiles: {smoke: {training: {segmentation: unet}}}")
+        >>> _ = synthcal.generate_store("intersection-1", f"{tmp.name}/data", profile="smoke")
+        >>> _ = synthcal.bench(f"{tmp.name}/data", ["intersection-1"], ["proposed"], f"{tmp.name}/results",
+        ...                    profile="smoke", config=layer, device="cpu")
+        >>> quality = synthcal.segmentation_quality(f"{tmp.name}/results")
+        >>> list(quality[["dataset", "seed", "n_images"]].itertuples(index=False, name=None))
+        [('intersection-1', 0, 8)]
+        >>> bool(0 <= quality["mean iou"][0] <= 1)
+        True
+        >>> tmp.cleanup()
+    """
+    import dataclasses
+    import json
+
+    import numpy as np
+    import pandas as pd
+    import torch
+
+    from synthcal.config import TrainingSettings
+    from synthcal.data import read_scene
+    from synthcal.eval.harness import Run
+    from synthcal.eval.isolation import load_run_split
+    from synthcal.eval.segmentation import chosen_learning_rate, confusion_matrix, quality_row, unet_records
+    from synthcal.models import UNet, device_from_name
+    from synthcal.training import NUM_CLASSES, StageCache, digest, reduce_class_maps, reduce_images
+
+    if not Path(results).is_dir():
+        raise FileNotFoundError(f"{results}: no such results folder")
+    records = unet_records(results)
+    if not records:
+        raise ValueError(f"{results}: no finished step-by-step run of a bundled model with segmentation 'unet'")
+    cache, torch_device = StageCache(Path(results) / "cache"), device_from_name(device)
+    rows: dict[str, dict[str, Any]] = {}
+    train_keys: dict[tuple[Any, ...], tuple[tuple[int, int], str]] = {}
+    for record in records:
+        run = Run(**record["run"])
+        if data is not None:
+            run = dataclasses.replace(run, store=str(Path(data) / Path(run.store).name))
+        s = TrainingSettings(**(run.settings or {}))
+        rate = chosen_learning_rate(record) or s.learning_rate
+        scene = read_scene(run.store)
+        # The key PaperEstimator._data and _shared_stages give the UNet, from the run's recorded code hash;
+        # the train split's digest is the slow part, and every model and loss of a seed shares it.
+        split = (run.store, run.seed, json.dumps(run.limits, sort_keys=True), s.max_train, s.work_size, run.code)
+        if split not in train_keys:
+            train = load_run_split(run, "train", scene)
+            semantics = np.asarray(train.semantics)[: s.max_train]
+            full_size = (semantics.shape[2], semantics.shape[1])
+            width, height = s.work_size or full_size
+            work_size = (int(width), int(height))
+            train_keys[split] = work_size, digest(run.code.removeprefix("synthcal:"), semantics,
+                                                  np.asarray(train.images)[: len(semantics)], full_size, work_size)
+        work_size, train_key = train_keys[split]
+        key = digest("unet", train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
+        if key in rows:  # another model (or loss) of the same seed, on the same UNet
+            rows[key]["models"] = ", ".join(sorted({*rows[key]["models"].split(", "), run.model}))
+            continue
+        state = cache.load("unet", key)
+        if state is None:
+            raise FileNotFoundError(f"{cache.path('unet', key)}: no UNet for run {run.id} in its results' cache")
+        unet = UNet(num_classes=NUM_CLASSES, width=s.unet_width, depth=s.unet_depth)
+        unet.load_state_dict(state)
+        unet.to(torch_device).eval()
+        test = load_run_split(run, "test", scene)
+        confusion = np.zeros((NUM_CLASSES, NUM_CLASSES), np.int64)
+        for start in range(0, len(test), batch_size):
+            rgb = reduce_images(test.images[start:start + batch_size], work_size)
+            with torch.no_grad():
+                predicted = unet(rgb.to(torch_device).float().div_(255.0)).argmax(dim=1).cpu().numpy()
+            truth = reduce_class_maps(test.semantics[start:start + batch_size], work_size).numpy()
+            confusion += confusion_matrix(truth, predicted, NUM_CLASSES)
+        rows[key] = {"dataset": Path(run.store).name.removesuffix(".zarr"), "seed": run.seed, "models": run.model,
+                     "learning_rate": rate, "unet": key, "n_images": len(test),
+                     "work_size": "×".join(map(str, work_size)), **quality_row(confusion, scene.classes)}
+    return pd.DataFrame(list(rows.values())).sort_values(["dataset", "seed"], kind="stable", ignore_index=True)

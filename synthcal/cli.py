@@ -698,6 +698,20 @@ def _cmd_table(args: argparse.Namespace) -> None:
             print(("% " if args.format == "latex" else "") + line)
 
 
+def _cmd_segmentation(args: argparse.Namespace) -> None:
+    from synthcal.api import segmentation_quality
+    from synthcal.eval.harness import collect_results
+    from synthcal.eval.segmentation import format_quality
+    from synthcal.store import StoreError
+
+    try:
+        quality = segmentation_quality(args.results, args.data, device=args.device)
+    except (FileNotFoundError, ValueError, StoreError) as error:
+        raise _UserError(str(error)) from None
+    results = None if args.format == "csv" else collect_results(args.results)
+    print(format_quality(quality, results, args.format, args.metric), end="")
+
+
 def _cmd_plot(args: argparse.Namespace) -> None:
     from synthcal.eval.harness import collect_results
     from synthcal.eval.plots import plot_iou, plot_overlays
@@ -1102,6 +1116,20 @@ def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.set_defaults(func=_cmd_table)
 
 
+def _add_segmentation(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("segmentation", help="the UNets a results folder caches, scored on their seed's test split "
+                                            "(per-class IoU/Dice), and the readings on their maps beside true maps")
+    p.add_argument("results", type=Path, help="the results folder of `synthcal bench --segmentation unet`")
+    p.add_argument("--data", type=Path, default=None,
+                   help="the folder holding the stores NAME.zarr (default: where each run recorded its store)")
+    p.add_argument("--format", choices=["md", "csv"], default="md",
+                   help="md: per seed, mean ± std over seeds, readings side by side; csv: the per-seed rows")
+    p.add_argument("--metric", default=DEFAULT_READING, choices=METRICS,
+                   help=_metric_help("the reading shown side by side"))
+    p.add_argument("--device", default="cpu", help="torch device for the UNets (default cpu)")
+    p.set_defaults(func=_cmd_segmentation)
+
+
 def _metric_help(what: str) -> str:
     """``--metric``'s help: every reading with its description, the default marked."""
     readings = "; ".join(f"{name}{' (default)' if name == DEFAULT_READING else ''}: {DESCRIPTIONS[name]}"
@@ -1144,6 +1172,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_demo(sub)
     _add_bench(sub)
     _add_table(sub)
+    _add_segmentation(sub)
     _add_plot(sub)
     return parser
 

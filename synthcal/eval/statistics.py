@@ -153,7 +153,18 @@ def background_floor(truths: np.ndarray, value: str) -> float:
 
 
 def _paper_difference(row: Mapping[str, str], key: str, a: str, b: str, aliases: Mapping[str, str]) -> float:
-    """The paper's A − B for a cell (NaN where it lacks either figure)."""
+    """The paper's A − B for a cell (NaN where it lacks either figure, or does not vary ``key``).
+
+    >>> import math
+    >>> row = {"dataset": "intersection-1", "model": "proposed", "training": "step-by-step", "loss": "top-mse",
+    ...        "matching_score": "top-mse"}
+    >>> round(_paper_difference(row, "model", "proposed", "sha2020", {}), 2)
+    1.97
+    >>> math.isnan(_paper_difference(row, "segmentation", "unet", "ground-truth", {}))
+    True
+    """
+    if key not in KEYS:  # the paper's tables do not vary it (e.g. segmentation): it claims no difference
+        return float("nan")
     paper = paper_results().drop_duplicates(list(KEYS))
     lookup = {tuple(map(str, k)): v
               for k, v in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}

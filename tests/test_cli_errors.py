@@ -304,7 +304,10 @@ def test_datasets_lists_every_name_generate_and_bench_accept(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     listed = {line.split()[0]: line for line in lines if line and not line.isupper() and line[0].islower()}
     loaded = load_config(path)
-    assert set(loaded.dataset_names) | {"mixed-1", "mixed-4", "mixed-5"} == set(listed)
+    # a mix's label: mixed-K for intersection-K, else mixed-TARGET (mixed-family-1, mixed-blank-1)
+    mixes = {f"mixed-{target.removeprefix('intersection-')}" for target in config["mixed_dictionaries"]}
+    assert {"mixed-1", "mixed-4", "mixed-5", "mixed-family-1", "mixed-blank-1"} <= mixes
+    assert set(loaded.dataset_names) | mixes == set(listed)
     assert "worldcup2014" in listed and "my-copy" in listed and "10 samples" in listed["my-copy"]
     assert "48 samples" in listed["intersection-1"]  # the smoke profile's pool
     for label in listed:  # every label names a dataset of the configuration (mixed-K: intersection-K)

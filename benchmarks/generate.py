@@ -39,7 +39,6 @@ import numpy as np
 from synthcal.config import load_config
 from synthcal.generate.pipeline import generate_dataset, load_scene
 from synthcal.generate.render import supersampled
-from synthcal.store import open_store
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -74,6 +73,10 @@ def peak_rss_mib(args: list[str]) -> float:
 
 
 def main() -> None:
+    # Imported here, not at the top: each spawned worker imports this script again, and a
+    # top-level open_store would load zarr in every worker as no `synthcal generate` does.
+    from synthcal.store import open_store
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=2000)
     parser.add_argument("--dataset", default="intersection-3")

@@ -143,15 +143,15 @@ def test_a_full_disk_is_one_line_naming_the_file_and_the_run_resumes(tmp_path, m
 
 
 def test_a_full_disk_while_creating_the_store_leaves_nothing(tmp_path, monkeypatch, capsys):
-    from synthcal.generate import pipeline
+    from synthcal.store import format as store_format  # the pipeline imports create_store from it as it runs
 
-    create_store = pipeline.create_store
+    create_store = store_format.create_store
 
     def fills_up(path: Path, *args, **kwargs) -> None:
         create_store(path, *args, **kwargs)
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))  # zarr's own writes name no file
 
-    monkeypatch.setattr(pipeline, "create_store", fills_up)
+    monkeypatch.setattr(store_format, "create_store", fills_up)
     out = tmp_path / "out"
     assert main(generate_args(out)) == 2
     partial = out / "intersection-1.zarr.partial"

@@ -61,7 +61,7 @@ from zarr.codecs import BloscCodec, Crc32cCodec, ZstdCodec
 from synthcal.store.errors import CorruptStore, StoreError
 from synthcal.store.images import PRESENCE_ARRAY, check_rendered, images_rendering
 from synthcal.store.manifest import MANIFEST_FILE, check_files, file_crc32c, read_manifest
-from synthcal.store.shards import ShardLayout, read_rows, shard_layout, write_shard
+from synthcal.store.shards import ShardLayout, read_rows, shard_layout, write_samples, write_shard
 
 __all__ = [
     "FORMAT_VERSION",
@@ -227,12 +227,6 @@ def image_layouts(path: Path) -> dict[str, ShardLayout]:
     """Shard layouts of the ``image`` and ``semantic`` arrays, for :func:`write_samples`."""
     group = open_group(path)
     return {name: shard_layout(array_at(group, name)) for name in ("image", "semantic")}
-
-
-def write_samples(layouts: dict[str, ShardLayout], shard: int, image: np.ndarray, semantic: np.ndarray) -> None:
-    """Write one shard's rendered samples, each array's shard file atomically."""
-    write_shard(layouts["image"], shard, image)
-    write_shard(layouts["semantic"], shard, semantic)
 
 
 def _chunk_files(folder: Path) -> list[Path]:

@@ -53,18 +53,21 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import google_crc32c
 import numpy as np
-import zarr
 from numcodecs import Blosc, Zstd
 from numcodecs.abc import Codec
 
 from synthcal.store.errors import CorruptStore
 from synthcal.utils.atomic import atomic_write
 
-__all__ = ["ShardLayout", "UnsupportedLayout", "shard_layout", "encode_shard", "write_shard", "read_rows", "read_threads"]
+if TYPE_CHECKING:  # writing needs no zarr: generate's workers import this module without it
+    import zarr
+
+__all__ = ["ShardLayout", "UnsupportedLayout", "shard_layout", "encode_shard", "write_shard", "write_samples",
+           "read_rows", "read_threads"]
 
 _EMPTY = 2**64 - 1  # offset and length of a chunk absent from its shard
 _SHUFFLE = {"noshuffle": Blosc.NOSHUFFLE, "shuffle": Blosc.SHUFFLE, "bitshuffle": Blosc.BITSHUFFLE}
@@ -165,10 +168,12 @@ def shard_layout(array: zarr.Array) -> ShardLayout:
         UnsupportedLayout: anything but the layout :func:`synthcal.store.create_store`
             makes; the message names the array and what differs (e.g. the codec).
     """
+    from zarr.storage import LocalStore
+
     where = str(array.store_path)
     meta: dict[str, Any] = array.metadata.to_dict()  # JSON: checked key by key below
     store = array.store_path.store
-    if not isinstance(store, zarr.storage.LocalStore) or meta.get("zarr_format") != 3:
+    if not isinstance(store, LocalStore) or meta.get("zarr_format") != 3:
         raise UnsupportedLayout(f"{where}: {type(store).__name__}, zarr_format {meta.get('zarr_format')} "
                                 f"(supported: a local Zarr v3 store)")
     shape = tuple(int(n) for n in array.shape)
@@ -252,6 +257,12 @@ def write_shard(layout: ShardLayout, shard: int, samples: np.ndarray) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_write(path) as tmp:
         tmp.write_bytes(data)
+
+
+def write_samples(layouts: dict[str, ShardLayout], shard: int, image: np.ndarray, semantic: np.ndarray) -> None:
+    """Write one shard's rendered samples, each array's shard file atomically."""
+    write_shard(layouts["image"], shard, image)
+    write_shard(layouts["semantic"], shard, semantic)
 
 
 # --- reading ---------------------------------------------------------------------------------

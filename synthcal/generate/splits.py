@@ -361,11 +361,11 @@ class SplitsResized(UserWarning):
     """A seed's splits were replaced by sets of other sizes (results on the old ones no longer match)."""
 
 
-def _sizes_text(recipe: dict[str, Any], only: Sequence[str] | None = None) -> str:
-    """``train 24, test 8, dictionary 12`` (and the mixed dictionary's size) of a recorded recipe
-    (of the splits ``only`` names, if given)."""
+def _sizes_text(recipe: dict[str, Any], only: Sequence[str] | None = None, mixed: bool = True) -> str:
+    """``train 24, test 8, dictionary 12`` (and, if ``mixed``, the mixed dictionary's size) of a recorded
+    recipe (of the splits ``only`` names, if given)."""
     sizes = {k: v for k, v in (recipe.get("sizes") or {}).items() if only is None or k in only}
-    if recipe.get("mixed_size"):
+    if mixed and recipe.get("mixed_size"):
         sizes["mixed dictionary"] = recipe["mixed_size"]
     return ", ".join(f"{name} {size}" for name, size in sizes.items())
 
@@ -374,9 +374,9 @@ def _warn_if_resized(store: Path, seed: int, recorded: dict[str, Any] | None, re
     """Warn when a seed's existing splits are about to be replaced by sets of other sizes."""
     if recorded is None:
         return
-    # a validation set added beside unchanged ones leaves every earlier result valid
-    kept = [*(recorded.get("sizes") or {})]
-    before, after = _sizes_text(recorded, kept), _sizes_text(recipe, kept)
+    # a validation set or a mixed dictionary added beside unchanged sets leaves every earlier result valid
+    kept, had_mixed = [*(recorded.get("sizes") or {})], bool(recorded.get("mixed_size"))
+    before, after = _sizes_text(recorded, kept, had_mixed), _sizes_text(recipe, kept, had_mixed)
     if before != after:
         warnings.warn(SplitsResized(f"{store}: seed {seed}: replacing its splits ({before}) with {after}; results "
                                     f"computed on the old splits no longer match them"), stacklevel=4)

@@ -148,6 +148,20 @@ def test_missing_source_store(stores, tmp_path):
     with pytest.warns(SplitsResized, match="mixed dictionary 12\\) with train 24, test 8, dictionary 12, validation 4;"):
         result = draw_splits(alone, seeds=[0])
     assert "intersection-1.zarr" in result.note
+    own = {name: read_split_indices(alone, name, 0) for name in SPLIT_NAMES}
+    # The sources beside it later: drawing again adds the mixed dictionary and keeps the own sets, so
+    # nothing earlier is invalidated and nothing warns.
+    sources = [tmp_path / f"{name}.zarr" for name in INTERSECTIONS if name != "intersection-4"]
+    for link in sources:
+        link.symlink_to(stores[link.stem])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SplitsResized)
+        draw_splits(alone, seeds=[0])
+    for name in SPLIT_NAMES:
+        np.testing.assert_array_equal(read_split_indices(alone, name, 0), own[name])
+    assert len(read_mixed_dictionary(alone, 0).index) == 12
+    for link in sources:
+        link.unlink()
     # A copy made with its mixed dictionary cannot resolve it without the sources.
     with pytest.raises(SplitError, match="mixed-dictionary source 'intersection-1'"):
         resolve_mixed_dictionary(alone, 1)

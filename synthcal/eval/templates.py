@@ -160,7 +160,8 @@ def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: b
     for run_id in runs["run_id"]:
         record = read_record(results / "runs" / str(run_id) / "run.json")
         picks[str(run_id)] = None if record is None else _picks(results, str(run_id), record)
-    runs = runs.assign(_key=runs[keys].astype(str).agg(" / ".join, axis=1))
+    # a key a run lacks (NaN: e.g. a matching score for a model without one) is a value too, not a crash
+    runs = runs.assign(_key=runs[keys].astype(object).fillna("–").astype(str).agg(" / ".join, axis=1))
     rows = []
     for (key, model), group in runs[runs["model"].isin(RETRIEVERS)].groupby(["_key", "model"], sort=False):
         per_seed = []

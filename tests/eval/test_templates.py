@@ -89,7 +89,7 @@ def test_mixed_dictionary_templates_take_their_pose_from_their_source_store(smok
     record = results / "runs" / "intersection-1_retrieved_s0" / "run.json"
     edited = json.loads(record.read_text())
     edited["run"].update(dataset="mixed-1", mixed=True)
-    edited["run"].pop("profile", None)  # a key a run lacks reads as NaN, and must group, not crash
+    edited["run"]["matching"] = None  # a run without a matching score (NaN in the frame) groups, not crashes
     record.write_text(json.dumps(edited))
     diagnostics = template_diagnostics(collect_results(results), results)
     assert diagnostics["dataset"].tolist() == ["mixed-1"] and np.isnan(diagnostics["agreement"].iloc[0])

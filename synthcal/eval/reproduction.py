@@ -236,7 +236,8 @@ def _row_text(row: Mapping[str, Any]) -> list[str]:
             _number(row["paper_difference"], True), row["learning_rates"], row["stn_epochs"], seconds, row["verdict"]]
 
 
-HEADER = ("n", "mean ± std", f"− {BASELINE}", "95 % CI (t)", "p", "wins", "paper", f"paper − {BASELINE}",
+# "> sha2020", not "wins": for a pixel reading a higher value is a worse one
+HEADER = ("n", "mean ± std", f"− {BASELINE}", "95 % CI (t)", "p", f"> {BASELINE}", "paper", f"paper − {BASELINE}",
           "lr (per seed)", "STN epochs (per seed)", "s/run", "verdict")
 
 
@@ -245,7 +246,8 @@ def report_caption(value: str, constants: Mapping[str, str]) -> str:
     unit = "px" if value in PIXEL_METRICS else "%"
     text = (f"{value} ({unit}): mean ± std over seeds (ddof = 1). − {BASELINE}: mean over seeds of the per-seed "
             f"difference against {BASELINE} run on the same split seed and settings; 95 % CI (t): paired t interval; "
-            f"p: its two-sided test of no difference; wins: seeds where the row scores higher. paper: the published "
+            f"p: its two-sided test of no difference; > {BASELINE}: seeds where the row's value is higher (for a "
+            f"pixel reading: worse). paper: the published "
             f"figure (a UNet's segmentation, the paper's own training; SPEC §7), paper − {BASELINE}: its difference "
             f"for the same cell. lr, STN epochs: what validation chose, per seed in seed order; s/run: median "
             f"seconds of a run. Verdict, from the 95 % CI [lo, hi] and the paper's difference d only: consistent "

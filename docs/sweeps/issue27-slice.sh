@@ -1,0 +1,37 @@
+#!/bin/bash
+# Issue 27's reproduction sweep as run on 2026-11-25 (docs/reproduction.md, "How it was run"). Run it from a folder
+# holding data/ (the quick stores) and results/, with a frozen clone of synthcal: a run is reused only while the
+# estimators', models' and training's code hash is unchanged, so later sessions must keep using the same clone.
+# Resumable: bench reuses finished runs; kill it at any time and start it again.
+set -u
+cd "${SWEEP:-.}"
+export OMP_NUM_THREADS=1
+S=${SYNTHCAL:-synthcal}
+SEL="--select learning_rate=1e-4,3e-4,1e-3 --patience 6"
+COMMON="--data data --results results --profile quick --seeds 0-4 --quiet --yes"
+step() { echo "=== $(date -u +%H:%M:%S) $*"; /usr/bin/time -f "wall %e s" "$@"; echo "=== done $(date -u +%H:%M:%S) rc $?"; }
+# 0. the stores (seconds each; the family/heading/blank ones after intersection-1, then its mixed dictionaries)
+step $S generate intersection-1 intersection-2 intersection-3 intersection-4 intersection-5 soccer worldcup2014 \
+    --profile quick --out data --workers 2 --splits --quiet --yes
+step $S generate intersection-1a intersection-1b intersection-1c intersection-1d intersection-1-turn0 \
+    intersection-1-turn15 intersection-1-turn45 intersection-1-turn90 intersection-1-blank family-1 heading-0 \
+    heading-15 heading-45 heading-90 blank-1 --profile quick --out data --workers 2 --splits --quiet --yes
+step $S split data/intersection-1.zarr   # its mixed dictionary, once intersections 2-5 are beside it
+# 1. intersection-1, Top-MSE: every model and diagnostic
+step $S bench --datasets intersection-1 --estimator sha2020 sha2020-ccbv proposed retrieved oracle-template template $SEL $COMMON --workers 2
+step $S bench --datasets mixed-1 mixed-family-1 mixed-blank-1 --estimator template retrieved oracle-template $SEL $COMMON --workers 2
+# 2. the heading sweep's diagnostics
+step $S bench --datasets mixed-heading-0 mixed-heading-15 mixed-heading-45 mixed-heading-90 --estimator template retrieved oracle-template $SEL $COMMON --workers 2
+# 3. the paper's one real dataset: World Cup 2014 (209 train / 186 test cameras); no validation set, so no
+#    selection: the profile's one rate (1e-3), every epoch
+step $S bench --datasets worldcup2014 --estimator sha2020 proposed retrieved oracle-template template $COMMON --workers 2
+# 4. UNet in the loop: one seed first to time it
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2 --seeds 0
+# 5. MSE beside Top-MSE on intersection-1
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
+# 6. the proposed model on the family and blank mixes
+step $S bench --datasets mixed-family-1 mixed-blank-1 mixed-1 --estimator proposed $SEL $COMMON --workers 2
+# 7. intersection-2, both losses
+step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
+# 8. UNet in the loop, remaining seeds
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2

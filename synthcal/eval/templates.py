@@ -115,14 +115,28 @@ def _dictionary(store: str, seed: int, mixed: bool) -> tuple[np.ndarray, np.ndar
     return homographies, pans
 
 
+def _store_path(recorded: str, results: Path) -> str:
+    """A run's store: as recorded, else relative to the results folder's parent.
+
+    bench records the store path it was given, often relative to where it ran, beside
+    its results folder; ``synthcal table`` may run anywhere.
+    """
+    path = Path(recorded)
+    if path.is_absolute() or (path / "zarr.json").is_file():
+        return str(path)
+    beside = results.parent / path
+    return str(beside if (beside / "zarr.json").is_file() else path)
+
+
 def _picks(results: Path, run_id: str, record: Mapping[str, Any]) -> pd.DataFrame | None:
     """Per test image of a run: its pool index, the template picked (-1: none) and that template's pan error."""
     run = record["run"]
     try:
         per_image = pd.read_csv(results / "runs" / run_id / "metrics.csv", usecols=["pool_index", *_H_COLUMNS])
         mixed = bool(run.get("mixed")) or str(run["dataset"]).startswith("mixed-")
-        homographies, pans = _dictionary(str(run["store"]), int(run["seed"]), mixed)
-        test_pans = _pans(str(run["store"]))[per_image["pool_index"].to_numpy()]
+        store = _store_path(str(run["store"]), results)
+        homographies, pans = _dictionary(store, int(run["seed"]), mixed)
+        test_pans = _pans(store)[per_image["pool_index"].to_numpy()]
     except (OSError, ValueError, KeyError, IndexError):  # StoreError is a ValueError
         return None
     picked = identify_templates(per_image[_H_COLUMNS].to_numpy().reshape(-1, 3, 3), homographies)

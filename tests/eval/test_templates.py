@@ -42,7 +42,7 @@ def _fake_run(results: Path, store: Path, model: str, test, estimates: np.ndarra
     per_image.to_csv(folder / "metrics.csv", index=False)
 
 
-def test_agreement_and_pan_error_against_the_store(smoke_stores, tmp_path):
+def test_agreement_and_pan_error_against_the_store(smoke_stores, tmp_path, monkeypatch):
     store = smoke_stores.copy(["intersection-1"], tmp_path / "data")["intersection-1"]
     draw_splits(store, seeds=[0])
     dictionary, test = load_split(store, "dictionary", 0), load_split(store, "test", 0)
@@ -55,9 +55,11 @@ def test_agreement_and_pan_error_against_the_store(smoke_stores, tmp_path):
     estimates = dictionary.homographies[retrieved] * scale
     estimates[0] = np.nan  # a failed image: no template
     results = tmp_path / "results"
-    _fake_run(results, store, "retrieved", test, estimates)
+    # bench records the store path as given: relative to where it ran, beside the results folder
+    _fake_run(results, store.relative_to(tmp_path), "retrieved", test, estimates)
     _fake_run(results, store, "oracle-template", test, dictionary.homographies[oracle])
     _fake_run(results, store, "proposed", test, estimates + 1.0)  # not a retriever: ignored
+    monkeypatch.chdir(results)  # the table printed from elsewhere
     diagnostics = template_diagnostics(collect_results(results), results, mixed_only=False)
     assert diagnostics["model"].tolist() == ["retrieved"]
     row = diagnostics.iloc[0]

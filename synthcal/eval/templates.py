@@ -10,16 +10,26 @@ come from the stores (``camera/pan_deg``): the test image's from the target
 store at its pool index, a template's from the store it was drawn from (a mixed
 dictionary's source store) — each pan as its own store records it.
 
-Per dataset, seed, settings and retriever (:func:`template_diagnostics`):
+Two templates per test image define the diagnostics:
 
-* ``agreement``: the share of test images where the retriever picked the
-  template ``oracle-template`` picked (the best-pose one by the true matching
-  score) — "the best-looking template is the best-pose one";
+* the *best-looking* one — the template of lowest true matching score, what a
+  perfect Siamese retrieves: ``oracle-template``'s pick;
+* the *best-pose* one — the template whose homography, used as the estimate,
+  reprojects the ground the image sees nearest to where it is (``reproj_px``
+  on an 8 × 5 grid of the image's ground pixels; an image that sees no ground
+  has none): :func:`best_pose_templates`.
+
+Per dataset, seed, settings and picker (``retrieved``, ``template`` and
+``oracle-template``; :func:`template_diagnostics`):
+
+* ``best_pose``: the share of test images where the picker's template is the
+  best-pose one — for ``oracle-template``, "how often the best-looking template
+  is the best-pose one";
 * ``pan_error``: the median over test images of the absolute pan difference
-  (degrees, wrapped to [0, 180]) between the retriever's template and the test
-  image; ``oracle_pan_error`` the same for ``oracle-template``'s.
+  (degrees, wrapped to [0, 180]) between the picker's template and the test
+  image; ``best_pan_error`` the same for the best-pose template.
 
-Seeds are summarised by their mean (``agreement``) and the median of the
+Seeds are summarised by their mean (``best_pose``) and the median of the
 per-seed medians (pan errors). A run whose estimates are not templates (none
 identified), or whose store cannot be read, is left out.
 """
@@ -37,7 +47,8 @@ import pandas as pd
 
 from synthcal.eval.tables import MISSING, wrap_caption
 
-__all__ = ["RETRIEVERS", "ORACLE", "TOLERANCE", "identify_templates", "pan_error_deg", "template_diagnostics",
+__all__ = ["RETRIEVERS", "ORACLE", "TOLERANCE", "identify_templates", "best_pose_templates", "pan_error_deg",
+           "template_diagnostics",
            "format_diagnostics", "oracle_cells", "diagnostics_text"]
 
 RETRIEVERS = ("retrieved", "template")
@@ -78,6 +89,56 @@ def identify_templates(estimates: np.ndarray, dictionary: np.ndarray, tolerance:
     return out
 
 
+def _image_grid(image_size: tuple[int, int], columns: int = 8, rows: int = 5) -> np.ndarray:
+    """(3, P) homogeneous pixel centres of a ``columns`` × ``rows`` grid spread over the image."""
+    width, height = image_size
+    u, v = np.meshgrid((np.arange(columns) + 0.5) * width / columns - 0.5,
+                       (np.arange(rows) + 0.5) * height / rows - 0.5)
+    return np.stack([u.ravel(), v.ravel(), np.ones(u.size)])
+
+
+def best_pose_templates(truths: np.ndarray, dictionary: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
+    """Per test image, the template whose homography reprojects the image's ground nearest to where it is.
+
+    The ground points are those of an 8 × 5 grid of image pixels that the true
+    homography sends in front of the camera (the sky and the horizon have none);
+    each template sends them back into the image, and its distance is the mean
+    image-pixel distance to the pixels they came from — ``reproj_px`` on that grid.
+    A template that puts any of them behind its camera is never best.
+
+    Args:
+        truths: (N, 3, 3) the test images' true homographies, bird's-eye → image, depth sign kept.
+        dictionary: (K, 3, 3) the templates' homographies, the same convention.
+        image_size: ``(width, height)`` of the images.
+
+    Returns:
+        (N,) int64 positions into ``dictionary`` of least distance; -1 where the true view sees no
+        grid pixel's ground or no template keeps them in front of its camera.
+
+    >>> import numpy as np
+    >>> shift = lambda dx: np.array([[1.0, 0, dx], [0, 1, 0], [0, 0, 1]])
+    >>> best_pose_templates(np.stack([shift(3.0)]), np.stack([shift(0.0), shift(2.5), shift(9.0)]), (4, 4))
+    array([1])
+    """
+    pixels = _image_grid(image_size)  # (3, P)
+    truths, templates = np.asarray(truths, np.float64), np.asarray(dictionary, np.float64)
+    ground = np.linalg.solve(truths, np.broadcast_to(pixels, (len(truths), *pixels.shape)))  # (N, 3, P)
+    seen = ground[:, 2] > 0  # in front of the true camera (depth sign kept, SPEC §2)
+    ground = ground / np.where(seen, ground[:, 2], np.nan)[:, None]
+    out = np.full(len(truths), -1, np.int64)
+    for start in range(0, len(truths), 16):  # (16, K, 3, P) reprojections at a time
+        back = np.einsum("kij,njp->nkip", templates, ground[start:start + 16])
+        in_front = (back[:, :, 2] > 0) | np.isnan(back[:, :, 2])
+        distance = np.hypot(*(back[:, :, :2] / back[:, :, 2:3] - pixels[None, None, :2]).transpose(2, 0, 1, 3))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # images that see no ground: all-NaN rows
+            mean = np.nanmean(distance, axis=-1)
+        mean[~in_front.all(axis=-1) | np.isnan(mean)] = np.inf
+        nearest = np.argmin(mean, axis=1)
+        out[start:start + 16] = np.where(np.isfinite(mean[np.arange(len(mean)), nearest]), nearest, -1)
+    return out
+
+
 def pan_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Absolute pan differences in degrees, wrapped to [0, 180]."""
     return np.abs((np.asarray(a, np.float64) - np.asarray(b, np.float64) + 180.0) % 360.0 - 180.0)
@@ -95,6 +156,14 @@ def _homographies(store: str) -> np.ndarray:
     from synthcal.store import array_at, open_store
 
     return np.asarray(array_at(open_store(store), "homography")[:], np.float64)
+
+
+@cache
+def _image_size(store: str) -> tuple[int, int]:
+    from synthcal.store import open_store
+
+    size: Any = open_store(store).attrs["image_size"]
+    return int(size[0]), int(size[1])
 
 
 @cache
@@ -129,25 +198,30 @@ def _store_path(recorded: str, results: Path) -> str:
 
 
 def _picks(results: Path, run_id: str, record: Mapping[str, Any]) -> pd.DataFrame | None:
-    """Per test image of a run: its pool index, the template picked (-1: none) and that template's pan error."""
+    """Per test image of a run: its pool index, the template picked and the best-pose one (-1: none), and their
+    pan errors."""
     run = record["run"]
     try:
         per_image = pd.read_csv(results / "runs" / run_id / "metrics.csv", usecols=["pool_index", *_H_COLUMNS])
         mixed = bool(run.get("mixed")) or str(run["dataset"]).startswith("mixed-")
         store = _store_path(str(run["store"]), results)
         homographies, pans = _dictionary(store, int(run["seed"]), mixed)
-        test_pans = _pans(store)[per_image["pool_index"].to_numpy()]
+        pool_index = per_image["pool_index"].to_numpy()
+        test_pans = _pans(store)[pool_index]
+        best = best_pose_templates(_homographies(store)[pool_index], homographies, _image_size(store))
     except (OSError, ValueError, KeyError, IndexError):  # StoreError is a ValueError
         return None
     picked = identify_templates(per_image[_H_COLUMNS].to_numpy().reshape(-1, 3, 3), homographies)
     if (picked < 0).all():
         return None
     error = np.where(picked >= 0, pan_error_deg(pans[np.maximum(picked, 0)], test_pans), np.nan)
-    return pd.DataFrame({"pool_index": per_image["pool_index"], "picked": picked, "pan_error": error})
+    best_error = np.where(best >= 0, pan_error_deg(pans[np.maximum(best, 0)], test_pans), np.nan)
+    return pd.DataFrame({"pool_index": per_image["pool_index"], "picked": picked, "pan_error": error,
+                         "best": best, "best_pan_error": best_error})
 
 
 def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: bool = True) -> pd.DataFrame:
-    """Agreement with ``oracle-template`` and pan errors of the retrievers' templates (module docstring).
+    """How often each picker's template is the best-pose one, and its pan errors (module docstring).
 
     Args:
         frame: per-run results (:func:`synthcal.eval.harness.collect_results`: ``run_id``, ``dataset``,
@@ -156,50 +230,47 @@ def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: b
         mixed_only: only mixed-dictionary datasets (``mixed-*``).
 
     Returns:
-        One row per dataset, matching score, segmentation, profile and retriever: ``seeds`` (with a
-        template identified), ``agreement`` (percent; NaN without an ``oracle-template`` run of the seed),
-        ``pan_error`` and ``oracle_pan_error`` (degrees; NaN where missing). Empty where nothing applies.
+        One row per dataset, matching score, segmentation, profile and picker (``retrieved``, ``template``,
+        ``oracle-template``): ``seeds`` (with a template identified), ``best_pose`` (percent of the test
+        images with a best-pose template), ``pan_error`` and ``best_pan_error`` (degrees). Empty where
+        nothing applies.
     """
     from synthcal.eval.harness import read_record
 
     results = Path(results)
     keys = ["dataset", "matching_score", "segmentation", "profile"]
-    runs = frame[frame["model"].isin([*RETRIEVERS, ORACLE])].drop_duplicates("run_id")
+    pickers = [*RETRIEVERS, ORACLE]
+    runs = frame[frame["model"].isin(pickers)].drop_duplicates("run_id")
     if mixed_only:
         runs = runs[runs["dataset"].astype(str).str.startswith("mixed-")]
-    columns = [*keys, "model", "seeds", "agreement", "pan_error", "oracle_pan_error"]
-    if not runs["model"].isin(RETRIEVERS).any():
+    columns = [*keys, "model", "seeds", "best_pose", "pan_error", "best_pan_error"]
+    if runs.empty:
         return pd.DataFrame(columns=columns)
-    picks: dict[str, pd.DataFrame | None] = {}
-    for run_id in runs["run_id"]:
-        record = read_record(results / "runs" / str(run_id) / "run.json")
-        picks[str(run_id)] = None if record is None else _picks(results, str(run_id), record)
     # a key a run lacks (NaN: e.g. a matching score for a model without one) is a value too, not a crash
     runs = runs.assign(_key=runs[keys].astype(object).fillna("–").astype(str).agg(" / ".join, axis=1))
     rows = []
-    for (key, model), group in runs[runs["model"].isin(RETRIEVERS)].groupby(["_key", "model"], sort=False):
+    for (key, model), group in runs.groupby(["_key", "model"], sort=False):
         per_seed = []
-        for run_id, seed in zip(group["run_id"], group["seed"], strict=True):
-            own = picks.get(str(run_id))
-            if own is None:
+        for run_id in group["run_id"]:
+            record = read_record(results / "runs" / str(run_id) / "run.json")
+            picks = None if record is None else _picks(results, str(run_id), record)
+            if picks is None:
                 continue
-            oracle_ids = runs.loc[(runs["_key"] == key) & (runs["model"] == ORACLE) & (runs["seed"] == seed), "run_id"]
-            oracle = picks.get(str(oracle_ids.iloc[0])) if len(oracle_ids) else None
-            agreement, oracle_error = np.nan, np.nan
-            if oracle is not None:
-                both = own.merge(oracle, on="pool_index", suffixes=("", "_oracle"))
-                both = both[(both["picked"] >= 0) & (both["picked_oracle"] >= 0)]
-                agreement = 100.0 * float((both["picked"] == both["picked_oracle"]).mean()) if len(both) else np.nan
-                oracle_error = float(np.nanmedian(oracle["pan_error"]))
-            per_seed.append((agreement, float(np.nanmedian(own["pan_error"])), oracle_error))
+            both = picks[(picks["picked"] >= 0) & (picks["best"] >= 0)]
+            share = 100.0 * float((both["picked"] == both["best"]).mean()) if len(both) else np.nan
+            per_seed.append((share, float(np.nanmedian(picks["pan_error"])),
+                             float(np.nanmedian(picks["best_pan_error"]))))
         if per_seed:
             values = np.array(per_seed, dtype=float)
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns (no oracle run) stay NaN
+                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns stay NaN
                 summary = (np.nanmean(values[:, 0]), np.nanmedian(values[:, 1]), np.nanmedian(values[:, 2]))
             rows.append({**dict(zip(keys, key.split(" / "), strict=True)), "model": model, "seeds": len(per_seed),
-                         "agreement": summary[0], "pan_error": summary[1], "oracle_pan_error": summary[2]})
-    return pd.DataFrame(rows, columns=columns)
+                         "best_pose": summary[0], "pan_error": summary[1], "best_pan_error": summary[2]})
+    order = {name: k for k, name in enumerate(pickers)}
+    out = pd.DataFrame(rows, columns=columns)
+    return out.sort_values(["dataset", "model"], key=lambda c: c.map(order) if c.name == "model" else c,
+                           kind="stable", ignore_index=True)
 
 
 def format_diagnostics(diagnostics: pd.DataFrame, oracle_cells: Mapping[str, str], fmt: str = "md") -> str:
@@ -216,12 +287,15 @@ def format_diagnostics(diagnostics: pd.DataFrame, oracle_cells: Mapping[str, str
     for row in diagnostics.to_dict("records"):
         def shown(value: float, unit: str) -> str:
             return MISSING if pd.isna(value) else f"{value:.1f}{unit}"
+        which = ("the best-looking template (lowest true matching score)" if row["model"] == ORACLE
+                 else f"the template {row['model']} picked")
         lines.append(f"Template diagnostics, {row['dataset']} ({row['model']}, matching {row['matching_score']}, "
-                     f"segmentation {row['segmentation']}, {row['seeds']} seeds): the best-looking template is the "
-                     f"best-pose one ({ORACLE}'s) for {shown(row['agreement'], ' %')} of test images; median pan "
-                     f"error of the {row['model']} template {shown(row['pan_error'], '°')} ({ORACLE}'s "
-                     f"{shown(row['oracle_pan_error'], '°')}); {ORACLE} row: "
-                     f"{oracle_cells.get(str(row['dataset']), MISSING)}.")
+                     f"segmentation {row['segmentation']}, {row['seeds']} seeds): {which} is the best-pose one "
+                     f"(its ground reprojected nearest the truth) for {shown(row['best_pose'], ' %')} of "
+                     f"test images; median pan error of {which} "
+                     f"{shown(row['pan_error'], '°')}, of the best-pose template {shown(row['best_pan_error'], '°')}"
+                     + (f"; {ORACLE} row: {oracle_cells.get(str(row['dataset']), MISSING)}." if row["model"] == ORACLE
+                        else "."))
     return "\n".join(wrap_caption(line, fmt) for line in lines) + "\n"
 
 

@@ -129,10 +129,11 @@ def best_pose_templates(truths: np.ndarray, dictionary: np.ndarray, image_size: 
     for start in range(0, len(truths), 16):  # (16, K, 3, P) reprojections at a time
         back = np.einsum("kij,njp->nkip", templates, ground[start:start + 16])
         in_front = (back[:, :, 2] > 0) | np.isnan(back[:, :, 2])
-        distance = np.hypot(*(back[:, :, :2] / back[:, :, 2:3] - pixels[None, None, :2]).transpose(2, 0, 1, 3))
-        with warnings.catch_warnings():
+        # a depth of 0 or NaN (a pixel the truth sends to the sky) is ruled out below, not an error here
+        with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # images that see no ground: all-NaN rows
-            mean = np.nanmean(distance, axis=-1)
+            moved = back[:, :, :2] / back[:, :, 2:3] - pixels[None, None, :2]
+            mean = np.nanmean(np.hypot(moved[:, :, 0], moved[:, :, 1]), axis=-1)
         mean[~in_front.all(axis=-1) | np.isnan(mean)] = np.inf
         nearest = np.argmin(mean, axis=1)
         out[start:start + 16] = np.where(np.isfinite(mean[np.arange(len(mean)), nearest]), nearest, -1)
@@ -288,7 +289,7 @@ def format_diagnostics(diagnostics: pd.DataFrame, oracle_cells: Mapping[str, str
         def shown(value: float, unit: str) -> str:
             return MISSING if pd.isna(value) else f"{value:.1f}{unit}"
         which = ("the best-looking template (lowest true matching score)" if row["model"] == ORACLE
-                 else f"the template {row['model']} picked")
+                 else f"the template `{row['model']}` picked")
         lines.append(f"Template diagnostics, {row['dataset']} ({row['model']}, matching {row['matching_score']}, "
                      f"segmentation {row['segmentation']}, {row['seeds']} seeds): {which} is the best-pose one "
                      f"(its ground reprojected nearest the truth) for {shown(row['best_pose'], ' %')} of "

@@ -104,7 +104,7 @@ def test_best_pose_share_and_pan_errors_against_the_store(smoke_stores, tmp_path
     assert row["pan_error"] == pytest.approx(np.median(error(retrieved)[1:]))
     assert row["best_pan_error"] == pytest.approx(np.median(error(best[best >= 0])[best >= 0]))
     text = format_diagnostics(diagnostics, {"intersection-1": "61.00 ± 1.00"})
-    assert f"for {row['best_pose']:.1f} %" in text and "template retrieved picked" in text
+    assert f"for {row['best_pose']:.1f} %" in text and "template `retrieved` picked" in text
 
 
 def test_mixed_dictionary_templates_take_their_pose_from_their_source_store(smoke_stores, tmp_path):

@@ -1100,10 +1100,12 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("table", help="the paper's tables from a results folder")
     p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
-    p.add_argument("--layout", choices=["models", "matching", "mixed", "report"], default=None,
+    p.add_argument("--layout", choices=["models", "matching", "mixed", "report", "diagnostics"], default=None,
                    help="default: models (own dictionaries) and mixed (mixed dictionaries) where present; report: "
                         "one row per cell with its paired difference against sha2020, its 95 %% CI, the paper's "
-                        "figures, what validation chose, the time per run and a verdict (docs/reproduction.md)")
+                        "figures, what validation chose, the time per run and a verdict (docs/reproduction.md); "
+                        "diagnostics: which template retrieved / template / oracle-template picked against the "
+                        "best-pose one, and pan errors, for every dataset")
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md", help="table format (default md)")
     p.add_argument("--compare-paper", action="store_true",
                    help="add the published figures (for each reading of the paper's IoU: iou, iou_bg, iou_weighted)")

@@ -30,7 +30,7 @@ from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
 from synthcal.eval.statistics import background_floor, format_paired
 from synthcal.eval.tables import PAIR_KEYS, format_table, legend, wrap_caption
-from synthcal.eval.templates import diagnostics_text
+from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
 __all__ = ["ReportError", "results_tables", "reproduction_report", "split_by",
            "one_label", "background_floors", "per_image_reader",
@@ -90,6 +90,9 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
     if layout == "report":
         yield reproduction_report(frame, fmt, metric, results)
         return
+    if layout == "diagnostics":
+        yield diagnostics_layout(frame, fmt, metric, results)
+        return
     floors = background_floors(results, frame, metric) if results is not None and metric in FLOOR_READINGS else {}
     frame = table_runs(frame)
     for title, part in split_by(frame, ("segmentation", "profile")):
@@ -110,6 +113,24 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
                     yield diagnostics
     if fmt != "csv":
         yield wrap_caption(legend(metric, compare_paper), fmt) + "\n"
+
+
+def diagnostics_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path | None) -> str:
+    """``table --layout diagnostics``: the template diagnostics (:mod:`synthcal.eval.templates`) of every
+    dataset, own dictionaries included — lines in md/LaTeX, one row per dataset, settings and picker in CSV.
+
+    Raises:
+        ReportError: no results folder, or no run whose template picks can be identified.
+    """
+    if results is None:
+        raise ReportError("table 'diagnostics' reads the runs' estimates: give the results folder")
+    diagnostics = template_diagnostics(frame, results, mixed_only=False)
+    if diagnostics.empty:
+        raise ReportError("table 'diagnostics': no finished run of retrieved, template or oracle-template whose "
+                          "templates can be identified")
+    if fmt == "csv":
+        return diagnostics.to_csv(index=False)
+    return format_diagnostics(diagnostics, oracle_cells(frame, metric), fmt)
 
 
 def reproduction_report(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path | None = None) -> str:

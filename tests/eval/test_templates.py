@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
@@ -70,7 +71,7 @@ def _best_pose_by_opencv(truths: np.ndarray, dictionary: np.ndarray, size: tuple
     return np.array(best)
 
 
-def test_best_pose_share_and_pan_errors_against_the_store(smoke_stores, tmp_path, monkeypatch):
+def test_best_pose_share_and_pan_errors_against_the_store(smoke_stores, tmp_path, monkeypatch, capsys):
     store = smoke_stores.copy(["intersection-1"], tmp_path / "data")["intersection-1"]
     draw_splits(store, seeds=[0])
     dictionary, test = load_split(store, "dictionary", 0), load_split(store, "test", 0)
@@ -105,6 +106,12 @@ def test_best_pose_share_and_pan_errors_against_the_store(smoke_stores, tmp_path
     assert row["best_pan_error"] == pytest.approx(np.median(error(best[best >= 0])[best >= 0]))
     text = format_diagnostics(diagnostics, {"intersection-1": "61.00 ± 1.00"})
     assert f"for {row['best_pose']:.1f} %" in text and "template `retrieved` picked" in text
+    # the same frame as a CSV, from the command line (own dictionaries included)
+    from synthcal.cli import main
+
+    assert main(["table", str(results), "--layout", "diagnostics", "--format", "csv"]) == 0
+    printed = pd.read_csv(io.StringIO(capsys.readouterr().out))
+    assert printed["best_pose"].iloc[0] == pytest.approx(row["best_pose"])
 
 
 def test_mixed_dictionary_templates_take_their_pose_from_their_source_store(smoke_stores, tmp_path):

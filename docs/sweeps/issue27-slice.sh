@@ -23,15 +23,28 @@ step $S bench --datasets mixed-1 mixed-family-1 mixed-blank-1 --estimator templa
 # 2. the heading sweep's diagnostics
 step $S bench --datasets mixed-heading-0 mixed-heading-15 mixed-heading-45 mixed-heading-90 --estimator template retrieved oracle-template $SEL $COMMON --workers 2
 # 3. the paper's one real dataset: World Cup 2014 (209 train / 186 test cameras); no validation set, so no
-#    selection: the profile's one rate (1e-3), every epoch
+#    selection: the profile's one rate (1e-3), every epoch; then the same runs at the grid's other two rates, each
+#    fixed (a sensitivity check, never a choice made on test), through a layered configuration
 step $S bench --datasets worldcup2014 --estimator sha2020 proposed retrieved oracle-template template $COMMON --workers 2
-# 4. UNet in the loop: one seed first to time it
-step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2 --seeds 0
+for lr in 3.0e-4 1.0e-4; do
+  printf 'profiles:\n  quick:\n    training:\n      learning_rate: %s\n' "$lr" > "lr$lr.yaml"
+  step $S bench --config "lr$lr.yaml" --datasets worldcup2014 --estimator sha2020 proposed --data data \
+      --results "results-wc14-lr$lr" --profile quick --seeds 0-4 --quiet --yes --workers 2
+done
+# ---- 2026-11-25 stopped here; the next slices, in this order ----
+# 4. UNet in the loop (seed 0's 1e-4 UNet is cached)
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
 # 5. MSE beside Top-MSE on intersection-1
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
-# 6. the proposed model on the family and blank mixes
-step $S bench --datasets mixed-family-1 mixed-blank-1 mixed-1 --estimator proposed $SEL $COMMON --workers 2
-# 7. intersection-2, both losses
+# 6. the trained models on the family, blank and paper mixes (retrieved trains each mix's Siamese at 3 rates)
+step $S bench --datasets mixed-family-1 mixed-blank-1 mixed-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
+# 7. intersection-2, both losses, sha2020-ccbv on Top-MSE
 step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
-# 8. UNet in the loop, remaining seeds
-step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
+# 8. end-to-end and the Dice losses on intersection-1 and -2
+step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
+# 9. intersections 3-5 and mixed-4/-5
+step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
+# 10. the UNet on intersection-2
+step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2

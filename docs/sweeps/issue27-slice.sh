@@ -16,7 +16,8 @@ step $S generate intersection-1 intersection-2 intersection-3 intersection-4 int
 step $S generate intersection-1a intersection-1b intersection-1c intersection-1d intersection-1-turn0 \
     intersection-1-turn15 intersection-1-turn45 intersection-1-turn90 intersection-1-blank family-1 heading-0 \
     heading-15 heading-45 heading-90 blank-1 --profile quick --out data --workers 2 --splits --quiet --yes
-step $S split data/intersection-1.zarr   # its mixed dictionary, once intersections 2-5 are beside it
+# the mixed dictionaries of mixed-1/-4/-5, once all five intersections are beside each other
+for k in 1 4 5; do step $S split data/intersection-$k.zarr; done
 # 1. intersection-1, Top-MSE: every model and diagnostic
 step $S bench --datasets intersection-1 --estimator sha2020 sha2020-ccbv proposed retrieved oracle-template template $SEL $COMMON --workers 2
 step $S bench --datasets mixed-1 mixed-family-1 mixed-blank-1 --estimator template retrieved oracle-template $SEL $COMMON --workers 2

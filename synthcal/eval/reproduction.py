@@ -60,9 +60,9 @@ from synthcal.eval.tables import (
     KEYS,
     MISSING,
     PAIR_KEYS,
-    latex_escape,
     order_values,
     paper_results,
+    text_table,
     validate_results,
     wrap_caption,
 )
@@ -274,13 +274,4 @@ def format_report(report: pd.DataFrame, fmt: str = "md") -> str:
     header = [*shown, *HEADER]
     body = [[str(row[k]) for k in shown] + _row_text(row) for row in report.to_dict("records")]
     caption = wrap_caption(report_caption(str(report.attrs.get("value", "iou")), constants), fmt)
-    if fmt == "md":
-        lines = ["| " + " | ".join(header) + " |",
-                 "|" + "|".join([":---"] * len(shown) + ["---:"] * (len(HEADER) - 1) + [":---"]) + "|"]
-        lines += ["| " + " | ".join(cells) + " |" for cells in body]
-        return "\n".join(lines) + "\n\n" + caption + "\n"
-    lines = [rf"\begin{{tabular}}{{{'l' * len(shown)}{'r' * (len(HEADER) - 1)}l}}", r"\hline",
-             " & ".join(latex_escape(h) for h in header) + r" \\", r"\hline"]
-    lines += [" & ".join(latex_escape(c) for c in cells) + r" \\" for cells in body]
-    lines += [r"\hline", r"\end{tabular}", caption]
-    return "\n".join(lines) + "\n"
+    return text_table(header, body, "l" * len(shown) + "r" * (len(HEADER) - 1) + "l", caption, fmt)

@@ -61,9 +61,9 @@ from synthcal.eval.tables import (
     PAIR_KEYS,
     SEGMENTATION_WORDS,
     counted,
-    latex_escape,
     order_values,
     paper_results,
+    text_table,
     validate_results,
     wrap_caption,
 )
@@ -315,16 +315,7 @@ def format_paired(
             _interval(row["boot_low"], row["boot_high"]), _p_value(row["p"]),
             f"{row['a_wins']} of {row['n_pairs']}", paper])
     caption = wrap_caption(_paired_caption(a, b, key, value, constants, resamples), fmt)
-    if fmt == "md":
-        lines = ["| " + " | ".join(header) + " |",
-                 "|" + "|".join([":---"] * len(varying) + ["---:"] * (len(header) - len(varying))) + "|"]
-        lines += ["| " + " | ".join(cells_) + " |" for cells_ in body]
-        return "\n".join(lines) + "\n\n" + caption + "\n"
-    lines = [rf"\begin{{tabular}}{{{'l' * len(varying)}{'r' * (len(header) - len(varying))}}}", r"\hline",
-             " & ".join(latex_escape(h) for h in header) + r" \\", r"\hline"]
-    lines += [" & ".join(latex_escape(c) for c in cells_) + r" \\" for cells_ in body]
-    lines += [r"\hline", r"\end{tabular}", caption]
-    return "\n".join(lines) + "\n"
+    return text_table(header, body, "l" * len(varying) + "r" * (len(header) - len(varying)), caption, fmt)
 
 
 def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str, str], resamples: int) -> str:

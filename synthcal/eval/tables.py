@@ -99,7 +99,7 @@ By matching_score, over 2 seeds. model: proposed; training: end-to-end; loss: to
 from __future__ import annotations
 
 import textwrap
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
@@ -110,7 +110,7 @@ import pandas as pd
 from synthcal.config import DESCRIPTIONS, PIXEL_METRICS, READINGS
 
 __all__ = ["KEYS", "MISSING", "PAIR_KEYS", "FORMATS", "Layout", "LAYOUTS", "paper_results", "validate_results",
-           "aggregate", "order_values", "table_frame", "counted", "wrap_caption", "latex_escape", "legend", "notes",
+           "aggregate", "order_values", "table_frame", "counted", "wrap_caption", "latex_escape", "text_table", "legend", "notes",
            "floor_line", "format_table", "failed_runs", "SEGMENTATION_WORDS"]
 
 KEYS = ("dataset", "model", "training", "loss", "matching_score")
@@ -350,6 +350,27 @@ def latex_escape(text: str) -> str:
                     ">": "$>$", "<": "$<$", INCOMPLETE: r"$^\dagger$"}
     return "".join(replacements.get(ch, ch) for ch in text)
 
+
+
+def text_table(header: Sequence[str], body: Sequence[Sequence[str]], aligns: str, caption: str, fmt: str) -> str:
+    """A Markdown or LaTeX table of ready-made cells with its caption below.
+
+    Args:
+        header: the column titles.
+        body: rows of cell texts, one per column.
+        aligns: one letter per column, ``l`` (left) or ``r`` (right).
+        caption: the text under the table (already wrapped for ``fmt``).
+        fmt: ``md`` or ``latex``.
+    """
+    if fmt == "md":
+        lines = ["| " + " | ".join(header) + " |", "|" + "|".join(":---" if a == "l" else "---:" for a in aligns) + "|"]
+        lines += ["| " + " | ".join(cells) + " |" for cells in body]
+        return "\n".join(lines) + "\n\n" + caption + "\n"
+    lines = [rf"\begin{{tabular}}{{{aligns}}}", r"\hline", " & ".join(latex_escape(h) for h in header) + r" \\",
+             r"\hline"]
+    lines += [" & ".join(latex_escape(c) for c in cells) + r" \\" for cells in body]
+    lines += [r"\hline", r"\end{tabular}", caption]
+    return "\n".join(lines) + "\n"
 
 def _text_grid(table: pd.DataFrame) -> tuple[list[str], list[list[str]], list[list[bool]], list[str]]:
     """Header, display cells, bold flags (row keys first, repeated keys blanked) and the incomplete cells

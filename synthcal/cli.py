@@ -88,11 +88,13 @@ def _cmd_osm(args: argparse.Namespace) -> None:
 
 
 def _cmd_osm_junctions(args: argparse.Namespace) -> None:
-    from synthcal.scenes.osm.junctions import datasets_snippet, find_junctions, rank, write_csv
+    from synthcal.scenes.osm.junctions import datasets_snippet, find_junctions, mix_name, rank, write_csv
     from synthcal.utils.atomic import atomic_write
 
     if args.datasets < 0:
         raise _UserError(f"--datasets: K must be ≥ 0 (value {args.datasets})")
+    if args.mix_for and not args.datasets:
+        raise _UserError(f"--mix-for {args.mix_for}: needs --datasets K, the junctions its dictionary draws on")
     junctions = find_junctions(args.file, args.bbox, args.legs)
     if args.like:
         junctions = rank(junctions, args.like)
@@ -101,10 +103,13 @@ def _cmd_osm_junctions(args: argparse.Namespace) -> None:
     print(f"{args.csv}: {len(junctions)} junctions{' most like ' + args.like + ' first' if args.like else ''}")
     if args.datasets:
         yaml_path = args.yaml or args.csv.with_suffix(".datasets.yaml")
-        text = datasets_snippet(junctions[: args.datasets], args.file, yaml_path.parent)
+        top = junctions[: args.datasets]
+        text = datasets_snippet(top, args.file, yaml_path.parent, mix_for=args.mix_for)
         with atomic_write(yaml_path) as tmp:
             tmp.write_text(text, encoding="utf-8")
-        print(f"{yaml_path}: scenes, datasets and mixed dictionaries of the first {min(args.datasets, len(junctions))}")
+        mixes = (f"{args.mix_for}'s mixed dictionary (bench label mixed-{mix_name(args.mix_for, len(top))})"
+                 if args.mix_for else "mixed dictionaries")
+        print(f"{yaml_path}: scenes, datasets and {mixes} of the first {len(top)}")
 
 
 def _cmd_datasets(args: argparse.Namespace) -> None:
@@ -888,6 +893,9 @@ def _add_osm_junctions(sub: argparse._SubParsersAction[argparse.ArgumentParser])
     p.add_argument("--datasets", type=int, default=0, metavar="K",
                    help="also write a datasets.yaml snippet: the first K junctions as OSM scenes, datasets and "
                         "mixed dictionaries")
+    p.add_argument("--mix-for", choices=BUILTIN_LAYOUT_NAMES, default=None, metavar="INTERSECTION",
+                   help="the snippet's mixed dictionary is instead this built-in intersection's, drawn from the K "
+                        "junctions, through a second store osmK-<k> (bench label mixed-osmK-<k>)")
     p.add_argument("--yaml", type=Path, default=None, help="where the snippet goes (default: CSV.datasets.yaml)")
     p.set_defaults(func=_cmd_osm_junctions)
 

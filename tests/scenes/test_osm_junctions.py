@@ -131,6 +131,27 @@ def test_cli_writes_the_catalogue_and_a_snippet_that_loads(extract, tmp_path, ca
     assert loaded.scenes[cross].osm.center == pytest.approx(CENTER, abs=1e-7)
 
 
+def test_a_mix_for_a_builtin_intersection_is_a_layered_config(extract, tmp_path, capsys):
+    """--mix-for: the K junctions become one mix, intersection-1's through a second store of its pool."""
+    path, ids = extract
+    snippet = tmp_path / "osm.yaml"
+    assert main(["osm-junctions", str(path), "--legs", "4", "--like", "intersection-1", "--csv", str(tmp_path / "j.csv"),
+                 "--datasets", "2", "--mix-for", "intersection-1", "--yaml", str(snippet)]) == 0
+    assert "mixed-osm2-1" in capsys.readouterr().out
+    config = load_config(snippet)  # the snippet alone, layered over the packaged configuration
+    cross, skewed = f"osm-{ids['cross']}", f"osm-{ids['skewed']}"
+    assert {k: v for k, v in config.config.mixed_dictionaries.items() if "osm" in k} == {"osm2-1": (cross, skewed)}
+    mix, own = config.resolve("osm2-1", "quick"), config.resolve("intersection-1", "quick")
+    assert mix.pool_name == "intersection-1" and mix.mixed_sources == (cross, skewed)
+    assert (mix.scene, mix.pool_size, mix.seed, mix.splits) == (own.scene, own.pool_size, own.seed, own.splits)
+    assert main(["datasets", "--config", str(snippet)]) == 0
+    listed = [line for line in capsys.readouterr().out.splitlines() if line.startswith("mixed-osm")]
+    assert len(listed) == 1 and listed[0].split()[0] == "mixed-osm2-1" and listed[0].endswith(f"{cross}, {skewed}")
+    # A mix needs junctions to draw on.
+    assert main(["osm-junctions", str(path), "--csv", str(tmp_path / "k.csv"), "--mix-for", "intersection-1"]) == 2
+    assert "--datasets" in capsys.readouterr().err and not (tmp_path / "k.csv").exists()
+
+
 @pytest.mark.parametrize("case", ["no junction", "bbox outside", "no such file", "no junction in bbox"])
 def test_bad_input_is_one_line_and_writes_nothing(extract, tmp_path, capsys, case):
     path, _ = extract

@@ -52,7 +52,7 @@ from ..base import SceneError
 from .classes import DEFAULT_CLASSES, parse_selector, strips
 
 __all__ = ["ROADS", "BEARING_REACH_M", "Junction", "find_junctions", "layout_bearings", "layout_difference", "rank",
-           "write_csv", "datasets_snippet"]
+           "write_csv", "datasets_snippet", "mix_name"]
 
 ROADS = frozenset({"motorway", "trunk", "primary", "secondary", "tertiary", "unclassified", "residential",
                    "living_street", "service", "motorway_link", "trunk_link", "primary_link", "secondary_link",
@@ -281,23 +281,40 @@ def write_csv(junctions: Sequence[Junction], path: str | Path) -> None:
                              "" if math.isnan(j.difference) else f"{j.difference:.2f}"])
 
 
+def mix_name(target: str, count: int) -> str:
+    """The second store of a built-in intersection whose dictionary is ``count`` junctions:
+    ``osm<count>-<k>`` for ``intersection-<k>`` (bench label ``mixed-osm<count>-<k>``)."""
+    return f"osm{count}-{target.removeprefix('intersection-')}"
+
+
 def datasets_snippet(junctions: Sequence[Junction], extract: str | Path, folder: str | Path,
-                     size_m: tuple[float, float] = (130.0, 190.0), pool_size: int = 200000) -> str:
+                     size_m: tuple[float, float] = (130.0, 190.0), pool_size: int = 200000,
+                     mix_for: str | None = None) -> str:
     """A ``datasets.yaml`` snippet: each junction an OSM scene and a dataset, and mixed dictionaries.
 
     Scene and dataset ``osm-<node id>`` (``osm:`` centred on the node, the paper's
-    intersection grid); with two or more junctions, every one is a mixed-dictionary target
-    whose templates come from all the others (the paper's mixed experiments).
+    intersection grid). Without ``mix_for``, with two or more junctions, every one is a
+    mixed-dictionary target whose templates come from all the others (the paper's mixed
+    experiments). With ``mix_for`` (a built-in intersection), the one target is instead a
+    second store of that intersection (:func:`mix_name`, ``same_pool_as`` it: the same pool
+    and splits, bit for bit, as the packaged family mixes) whose templates come from all
+    the junctions: real junctions standing in for the paper's "other intersections".
 
     Args:
         junctions: the junctions, e.g. the top K of :func:`rank`.
         extract: the extract's path.
         folder: where the merged ``datasets.yaml`` will live (``file:`` is relative to it).
         size_m: the scenes' window in metres.
-        pool_size: each dataset's pool.
+        pool_size: each dataset's pool (the packaged intersections' 200,000 where ``mix_for``
+            is given: ``same_pool_as`` requires the same).
+        mix_for: a built-in intersection, e.g. ``intersection-1``.
 
     Returns:
-        YAML text with top-level ``scenes``, ``datasets`` and (K ≥ 2) ``mixed_dictionaries``.
+        YAML text with top-level ``scenes``, ``datasets`` and (K ≥ 2, or ``mix_for``)
+        ``mixed_dictionaries``.
+
+    Raises:
+        SceneError: ``mix_for`` is not a built-in intersection.
     """
     names = [f"osm-{j.node_id}" for j in junctions]
     file = os.path.relpath(Path(extract).resolve(), Path(folder).resolve())
@@ -306,9 +323,17 @@ def datasets_snippet(junctions: Sequence[Junction], extract: str | Path, folder:
               for name, j in zip(names, junctions, strict=True)}
     datasets = {name: {"scene": name, "grid": "intersection", "pool_size": pool_size} for name in names}
     snippet: dict[str, Any] = {"scenes": scenes, "datasets": datasets}
-    if len(names) > 1:
+    if mix_for is not None:
+        layout_bearings(mix_for)  # names the choices
+        target = mix_name(mix_for, len(names))
+        datasets[target] = {"scene": mix_for, "grid": "intersection", "pool_size": pool_size, "same_pool_as": mix_for}
+        snippet["mixed_dictionaries"] = {target: names}
+    elif len(names) > 1:
         snippet["mixed_dictionaries"] = {name: [other for other in names if other != name] for name in names}
     header = (f"# {len(names)} road junctions of {Path(extract).name} (synthcal osm-junctions). Merge each block into\n"
               "# the same block of a datasets.yaml in this folder (osm file paths are relative to it).\n"
               "# Map data © OpenStreetMap contributors, ODbL.\n")
+    if mix_for is not None:
+        header += (f"# Bench label mixed-{mix_name(mix_for, len(names))}: {mix_for}'s train/test sets, templates from "
+                   "these junctions.\n")
     return header + yaml.safe_dump(snippet, sort_keys=False, default_flow_style=None, allow_unicode=True)

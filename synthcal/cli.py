@@ -440,7 +440,8 @@ def _print_scene_source(source: dict) -> None:
         lat, lon = source["center"]
         width, height = source["size_m"]
         print(f"scene source OpenStreetMap {source['file']} (sha256 {source['sha256'][:12]}…) around ({lat}, {lon}), "
-              f"{width:g} × {height:g} m")
+              f"{width:g} × {height:g} m" + (f", turned {source['rotation_deg']:g}° (rotation_deg)"
+                                          if source.get("rotation_deg") else ""))
     print(f"licence      {source.get('licence', 'not recorded')}; {source.get('attribution', 'no attribution recorded')}")
 
 

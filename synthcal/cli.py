@@ -104,7 +104,7 @@ def _cmd_osm_junctions(args: argparse.Namespace) -> None:
     if args.datasets:
         yaml_path = args.yaml or args.csv.with_suffix(".datasets.yaml")
         top = junctions[: args.datasets]
-        text = datasets_snippet(top, args.file, yaml_path.parent, mix_for=args.mix_for)
+        text = datasets_snippet(top, args.file, yaml_path.parent, mix_for=args.mix_for, align_to=args.like)
         with atomic_write(yaml_path) as tmp:
             tmp.write_text(text, encoding="utf-8")
         mixes = (f"{args.mix_for}'s mixed dictionary (bench label mixed-{mix_name(args.mix_for, len(top))})"
@@ -440,7 +440,8 @@ def _print_scene_source(source: dict) -> None:
         lat, lon = source["center"]
         width, height = source["size_m"]
         print(f"scene source OpenStreetMap {source['file']} (sha256 {source['sha256'][:12]}…) around ({lat}, {lon}), "
-              f"{width:g} × {height:g} m")
+              f"{width:g} × {height:g} m" + (f", turned {source['rotation_deg']:g}° (rotation_deg)"
+                                          if source.get("rotation_deg") else ""))
     print(f"licence      {source.get('licence', 'not recorded')}; {source.get('attribution', 'no attribution recorded')}")
 
 
@@ -892,7 +893,8 @@ def _add_osm_junctions(sub: argparse._SubParsersAction[argparse.ArgumentParser])
     p.add_argument("--csv", type=Path, required=True, help="the catalogue to write")
     p.add_argument("--datasets", type=int, default=0, metavar="K",
                    help="also write a datasets.yaml snippet: the first K junctions as OSM scenes, datasets and "
-                        "mixed dictionaries")
+                        "mixed dictionaries; with --like or --mix-for each scene turned (rotation_deg) so its "
+                        "legs lie along that intersection's")
     p.add_argument("--mix-for", choices=BUILTIN_LAYOUT_NAMES, default=None, metavar="INTERSECTION",
                    help="the snippet's mixed dictionary is instead this built-in intersection's, drawn from the K "
                         "junctions, through a second store osmK-<k> (bench label mixed-osmK-<k>)")

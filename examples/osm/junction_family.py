@@ -4,8 +4,8 @@
     python examples/osm/junction_family.py work/j.csv work/j.datasets.yaml docs/osm_junction_family.png
 
 Each tile is one scene of the snippet (built as ``synthcal scene osm-<node id> --config
-work/j.datasets.yaml`` builds it), labelled with its node id, legs and ``difference_deg``,
-in the CSV's order. Map data © OpenStreetMap contributors, ODbL.
+work/j.datasets.yaml`` builds it), labelled with its node id, legs, ``difference_deg`` and
+``rotation_deg`` (each scene drawn turned onto the layout's legs), in the CSV's order. Map data © OpenStreetMap contributors, ODbL.
 """
 
 from __future__ import annotations
@@ -37,6 +37,8 @@ def tile(rgb: np.ndarray, row: dict[str, str]) -> np.ndarray:
     height = round(rgb.shape[0] * TILE_WIDTH / rgb.shape[1])
     small = cv2.resize(rgb, (TILE_WIDTH, height), interpolation=cv2.INTER_AREA)
     text = [f"node {row['node_id']}", f"{row['legs']} legs, {float(row.get('difference_deg') or 0):.1f} deg off"]
+    if row.get("rotation_deg"):  # ranked: the scene is drawn turned onto the layout's legs
+        text.append(f"turned {float(row['rotation_deg']):.1f} deg")
     picture = np.concatenate([label(text, TILE_WIDTH), small], axis=0)
     return np.pad(picture, ((0, 0), (0, 8), (0, 0)), constant_values=255)
 

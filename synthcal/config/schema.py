@@ -246,7 +246,10 @@ class OsmSourceConfig(StrictModel):
     ``file`` (``.osm``, ``.osm.pbf``, ``.osm.bz2``) is relative to the YAML file;
     ``center`` is ``[lat, lon]`` in WGS84 degrees; ``size_m`` the window
     ``[width, height]`` in metres; ``classes`` moves tag selectors to classes
-    (``{terrain: ["landuse=farmland"]}``, see docs/osm.md); ``seed`` seeds the RGB.
+    (``{terrain: ["landuse=farmland"]}``, see docs/osm.md); ``seed`` seeds the RGB;
+    ``rotation_deg`` turns the window about the centre before rasterising (a road at
+    bearing ``b`` is drawn at screen bearing ``b + rotation_deg``, clockwise from up; 0:
+    north up), e.g. to line a junction's legs up with a built-in intersection's.
     """
 
     file: Path
@@ -255,6 +258,7 @@ class OsmSourceConfig(StrictModel):
     pixels_per_metre: StrictFloat = Field(10.0, gt=0)
     classes: dict[str, list[str]] | None = None
     seed: StrictInt = 0
+    rotation_deg: StrictFloat = 0.0
 
     @field_validator("center")
     @classmethod
@@ -269,6 +273,13 @@ class OsmSourceConfig(StrictModel):
         if not all(0 < s < float("inf") for s in size):
             raise ValueError(f"size_m must be [width, height] in metres, both > 0, got {list(size)}")
         return size
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data: dict[str, Any] = handler(self)
+        if self.rotation_deg == 0.0:
+            data.pop("rotation_deg", None)  # north-up scenes keep their configuration hash
+        return data
 
 
 # Keys of a PNG scene that an osm: scene takes from its source instead.

@@ -97,7 +97,7 @@ def _osm_scene(spec: DatasetSpec) -> Scene:
     assert spec.user_scene is not None and spec.user_scene.osm is not None
     user, osm = spec.user_scene, spec.user_scene.osm
     scene = build_osm_scene(osm.file, osm.center, osm.size_m, osm.pixels_per_metre, name=spec.scene, seed=osm.seed,
-                            classes=osm.classes)
+                            classes=osm.classes, rotation_deg=osm.rotation_deg)
     if user.camera_position is None and user.heading_deg == 0.0:
         return scene
     return dataclasses.replace(scene, heading_deg=user.heading_deg,
@@ -111,7 +111,8 @@ def _source_attributes(spec: DatasetSpec) -> dict:
     from synthcal.scenes.osm import osm_attributes
 
     osm = spec.user_scene.osm
-    return {"source": osm_attributes(osm.file, osm.center, osm.size_m, osm.pixels_per_metre, osm.classes, osm.seed)}
+    return {"source": osm_attributes(osm.file, osm.center, osm.size_m, osm.pixels_per_metre, osm.classes, osm.seed,
+                                     osm.rotation_deg)}
 
 
 def anchored_spec(spec: DatasetSpec, scene: Scene) -> DatasetSpec:

@@ -7,6 +7,7 @@ to WGS84 through the frame's transverse Mercator (SPEC §4), so a test can ask
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -39,6 +40,11 @@ def metres_of(lon: float, lat: float, center: Sequence[float] = CENTER) -> tuple
     """Frame metres of WGS84 (lon, lat), through an independent transformer."""
     east, north = Transformer.from_crs("EPSG:4326", _proj(center), always_xy=True).transform(lon, lat)
     return float(east), float(north)
+
+
+def ahead(origin: tuple[float, float], bearing: float, distance: float) -> tuple[float, float]:
+    """Frame metres ``distance`` from ``origin`` at ``bearing`` (degrees clockwise from north)."""
+    return origin[0] + distance * math.sin(math.radians(bearing)), origin[1] + distance * math.cos(math.radians(bearing))
 
 
 class OsmXml:

@@ -8,7 +8,6 @@ through the code under test.
 from __future__ import annotations
 
 import csv
-import math
 import sys
 from importlib import resources
 from pathlib import Path
@@ -17,7 +16,7 @@ import pytest
 import yaml
 
 sys.path.insert(0, str(Path(__file__).parent))
-from osm_fixtures import CENTER, OsmXml, to_lonlat  # noqa: E402
+from osm_fixtures import CENTER, OsmXml, ahead, to_lonlat  # noqa: E402
 
 from synthcal.cli import main  # noqa: E402
 from synthcal.config import load_config  # noqa: E402
@@ -28,10 +27,6 @@ CROSS, TEE, SKEWED = (0.0, 0.0), (400.0, 0.0), (800.0, 0.0)
 # intersection-2's legs (image angles 0, 65, 180, 245 → bearings 90, 155, 270, 335), turned by 30°.
 SKEWED_BEARINGS = (5.0, 120.0, 185.0, 300.0)
 TOLERANCE = 1.5  # degrees: the fixture's projection and the 20 m reach past a kinked first segment
-
-
-def ahead(origin: tuple[float, float], bearing: float, distance: float) -> tuple[float, float]:
-    return origin[0] + distance * math.sin(math.radians(bearing)), origin[1] + distance * math.cos(math.radians(bearing))
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,9 @@
 around a centre ``(lat, lon)`` and paints the bird's-eye semantic map and a
 plausible RGB in the frame of SPEC §4 (:mod:`.read`): a transverse Mercator
 centred on the centre, ``u = (W − 1)/2 + E·ppm``, ``v = (H − 1)/2 − N·ppm``, north
-up. The defaults (130 × 190 m at 10 px/m: 1300 × 1900 px) put the paper's
+up — or turned about the centre by ``rotation_deg`` (a bearing ``b`` drawn at ``b + r``,
+clockwise on screen), e.g. to line a junction's legs up with a built-in layout's
+(:func:`~.junctions.layout_rotation`). The defaults (130 × 190 m at 10 px/m: 1300 × 1900 px) put the paper's
 intersection grid (X 600–700, Y 900–1000) over the centre.
 
 Classes: 1 road (carriageways), 2 terrain (grass, parks, scrub), 3 bicycle path,
@@ -108,10 +110,22 @@ def _check_numbers(where: str, path: Path, center: Sequence[float], size_m: Sequ
     return (lat, lon), (width, height), scale
 
 
+def _check_rotation(where: str, path: Path, rotation_deg: float) -> float:
+    try:
+        rotation = float(rotation_deg)
+    except (TypeError, ValueError):
+        rotation = math.nan
+    if not math.isfinite(rotation):
+        raise SceneError(f"{where}.rotation_deg ({path}): must be a finite number of degrees (value {rotation_deg!r})")
+    return rotation
+
+
 def _cache_key(digest: str, frame: Frame, classes: Mapping[str, Sequence[str]] | None, seed: int) -> str:
     settings = {"file": digest, "center": [frame.lat, frame.lon], "size_m": [frame.width_m, frame.height_m],
                 "ppm": frame.ppm, "classes": {k: list(v) for k, v in (classes or {}).items()}, "seed": seed,
                 "painter": PAINTER_VERSION}
+    if frame.rotation_deg != 0.0:  # north-up scenes keep the keys of their cache entries
+        settings["rotation_deg"] = frame.rotation_deg
     return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()
 
 
@@ -183,6 +197,7 @@ def build_osm_scene(
     name: str | None = None,
     seed: int = 0,
     classes: Mapping[str, Sequence[str]] | None = None,
+    rotation_deg: float = 0.0,
     cache: bool = True,
 ) -> Scene:
     """Build the scene of an OpenStreetMap extract around ``center``.
@@ -196,6 +211,9 @@ def build_osm_scene(
         seed: the RGB's random seed (cars, roofs, trees, textures).
         classes: overrides of the tag → class mapping, class name → selectors
             (:func:`~.classes.class_rules`).
+        rotation_deg: the window turned about the centre (:class:`~.read.Frame`): a road at
+            bearing ``b`` (clockwise from north) runs at screen bearing ``b + rotation_deg``
+            (clockwise from up); 0 is north up.
         cache: keep the result in the process and on disk (:func:`cache_folder`) and
             read it back; False builds afresh and keeps nothing.
 
@@ -205,15 +223,16 @@ def build_osm_scene(
     Raises:
         SceneError: missing or unreadable file, centre outside the file's data,
             no road in the window, unknown class or bad selector in ``classes``,
-            size or scale ≤ 0 — the message names the file, key and value.
+            size or scale ≤ 0, a rotation that is not a finite number — the message names the file, key and value.
     """
     path = Path(path)
     name = name or path.name.split(".")[0]
     where = f"scene {name!r}: osm"
     _check_file(where, path)
     (lat, lon), (width, height), ppm = _check_numbers(where, path, center, size_m, pixels_per_metre)
+    rotation = _check_rotation(where, path, rotation_deg)
     rules = class_rules(classes, f"{where}.classes ({path})")
-    frame = Frame(lat, lon, width, height, ppm)
+    frame = Frame(lat, lon, width, height, ppm, rotation)
     key = _cache_key(file_sha256(path), frame, classes, int(seed))
     if not cache:
         image, semantic, _READINGS[key] = paint_window(path, where, frame, rules, int(seed))
@@ -232,16 +251,18 @@ def build_osm_scene(
 
 def _scene(name: str, path: Path, frame: Frame, image: np.ndarray, semantic: np.ndarray) -> Scene:
     w, h = frame.width, frame.height
+    turned = f", turned (rotation_deg {frame.rotation_deg:g})" if frame.rotation_deg else ""
     return Scene(name, freeze(image), freeze(semantic), CLASS_NAMES, PALETTE, heading_deg=0.0,
                  camera_position=(w / 2, h / 2, 7.5 * frame.ppm), pixels_per_metre=frame.ppm,
                  description=f"OpenStreetMap {path.name} around ({frame.lat:.6f}, {frame.lon:.6f}), "
-                             f"{frame.width_m:g} × {frame.height_m:g} m; {OSM_ATTRIBUTION} (ODbL)")
+                             f"{frame.width_m:g} × {frame.height_m:g} m{turned}; {OSM_ATTRIBUTION} (ODbL)")
 
 
 def osm_attributes(path: str | os.PathLike, center: Sequence[float], size_m: Sequence[float],
                    pixels_per_metre: float, classes: Mapping[str, Sequence[str]] | None = None,
-                   seed: int = 0) -> dict[str, Any]:
+                   seed: int = 0, rotation_deg: float = 0.0) -> dict[str, Any]:
     """What a store records about an OSM scene's source: file hash, centre, size, scale, licence,
+    ``rotation_deg`` where it is not 0 (north-up stores keep their attributes),
     and what reading found: ``missing_nodes`` (nodes of the ways reaching the window that the
     extract lacks; those ways are kept as their located runs) and ``cut_ways`` (how many ways).
 
@@ -249,13 +270,15 @@ def osm_attributes(path: str | os.PathLike, center: Sequence[float], size_m: Seq
     arguments; built here if it was not).
     """
     path = Path(path)
-    frame = Frame(float(center[0]), float(center[1]), float(size_m[0]), float(size_m[1]), float(pixels_per_metre))
+    frame = Frame(float(center[0]), float(center[1]), float(size_m[0]), float(size_m[1]), float(pixels_per_metre),
+                  float(rotation_deg))
     key = _cache_key(file_sha256(path), frame, classes, int(seed))
     if key not in _READINGS:
-        build_osm_scene(path, center, size_m, pixels_per_metre, seed=seed, classes=classes)
+        build_osm_scene(path, center, size_m, pixels_per_metre, seed=seed, classes=classes, rotation_deg=rotation_deg)
+    turn = {"rotation_deg": frame.rotation_deg} if frame.rotation_deg else {}
     return {
         "kind": "openstreetmap", "file": path.name, "sha256": file_sha256(path),
         "center": [float(c) for c in center], "size_m": [float(s) for s in size_m],
         "pixels_per_metre": float(pixels_per_metre), "classes": {k: list(v) for k, v in (classes or {}).items()},
-        "seed": int(seed), "licence": OSM_LICENCE, "attribution": OSM_ATTRIBUTION, **_READINGS[key],
+        "seed": int(seed), **turn, "licence": OSM_LICENCE, "attribution": OSM_ATTRIBUTION, **_READINGS[key],
     }

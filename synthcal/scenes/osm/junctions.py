@@ -22,7 +22,13 @@ Likeness
 :func:`layout_difference` compares two sets of bearings: the mean angular distance from
 each leg to the nearest leg of the other set, averaged both ways, minimised over
 rotations (a camera grid's pans cover every direction, so a turned copy of a layout is
-the same layout for a dataset). :func:`rank` orders junctions by the difference in leg
+the same layout for a dataset). :func:`layout_rotation` is the rotation that minimum is
+found at: the turn ``r`` (degrees, clockwise on a north-up map) that brings the legs onto
+the reference's, ``bearing + r`` ≈ a reference bearing — what an OSM scene's
+``rotation_deg`` takes to draw the junction with its legs along the reference's (its
+frame, and its cameras' poses, then aligned with the built-in intersection's). Of equal
+minima (a symmetric reference: a cross's every 90°) the smallest turn is taken, the
+clockwise one on a tie. :func:`rank` orders junctions by the difference in leg
 count to the reference, then by that difference, then by node id. The built-in
 intersections' legs (:data:`synthcal.scenes.intersection.LAYOUTS`, image angles: 0° = +u,
 east on screen, 90° = +v, south) give their bearings as ``angle + 90°``.
@@ -31,6 +37,8 @@ Example
 -------
 >>> layout_difference((0.0, 90.0, 180.0, 270.0), (30.0, 120.0, 210.0, 300.0))
 0.0
+>>> layout_rotation((35.0, 125.0, 215.0, 305.0), (0.0, 90.0, 180.0, 270.0))
+-35.0
 >>> layout_bearings("intersection-1")
 (0.0, 90.0, 180.0, 270.0)
 """
@@ -51,7 +59,7 @@ import yaml
 from ..base import SceneError
 from .classes import DEFAULT_CLASSES, parse_selector, strips
 
-__all__ = ["ROADS", "BEARING_REACH_M", "Junction", "find_junctions", "layout_bearings", "layout_difference", "rank",
+__all__ = ["ROADS", "BEARING_REACH_M", "Junction", "find_junctions", "layout_bearings", "layout_difference", "layout_rotation", "rank",
            "write_csv", "datasets_snippet", "mix_name"]
 
 ROADS = frozenset({"motorway", "trunk", "primary", "secondary", "tertiary", "unclassified", "residential",
@@ -61,7 +69,8 @@ BEARING_REACH_M = 20.0
 _EARTH_RADIUS_M = 6371008.8
 # The OSM scene's own selectors of separate cycle ways (not its area:highway one: areas have no legs).
 _CYCLE_WAYS = tuple(parse_selector(text, "bicycle path") for text in DEFAULT_CLASSES["bicycle path"][:2])
-CSV_COLUMNS = ("node_id", "lat", "lon", "legs", "bearings", "road_classes", "cycleway", "difference_deg")
+CSV_COLUMNS = ("node_id", "lat", "lon", "legs", "bearings", "road_classes", "cycleway", "difference_deg",
+               "rotation_deg")
 
 
 @dataclass(frozen=True)
@@ -76,6 +85,7 @@ class Junction:
         road_classes: the legs' distinct ``highway`` values, sorted.
         cycleway: whether a cycle way or a road's cycle strip touches it.
         difference: :func:`layout_difference` to the reference of :func:`rank` (NaN before ranking).
+        rotation: :func:`layout_rotation` onto that reference, degrees clockwise (NaN before ranking).
     """
 
     node_id: int
@@ -86,6 +96,7 @@ class Junction:
     road_classes: tuple[str, ...]
     cycleway: bool
     difference: float = float("nan")
+    rotation: float = float("nan")
 
 
 @dataclass
@@ -251,34 +262,65 @@ def layout_difference(bearings: Sequence[float], reference: Sequence[float]) -> 
         The symmetric mean nearest-leg angular distance, minimised over rotations: 0 for
         a turned copy, at most 90 for two legs each.
     """
+    return _best_turn(bearings, reference)[0]
+
+
+def layout_rotation(bearings: Sequence[float], reference: Sequence[float]) -> float:
+    """The turn that lines ``bearings`` up with ``reference`` (module docstring).
+
+    Args:
+        bearings: (n,) leg bearings in degrees (clockwise from north).
+        reference: (m,) leg bearings in degrees.
+
+    Returns:
+        ``r`` in (−180, 180]: the legs turned clockwise by ``r`` (``bearing + r``) lie at
+        :func:`layout_difference` from the reference; the smallest such turn, the
+        clockwise one on a tie.
+    """
+    return _best_turn(bearings, reference)[1]
+
+
+# Costs this close count as equal: a symmetric reference's minima differ by rounding only.
+_TIE_DEG = 1e-6
+
+
+def _best_turn(bearings: Sequence[float], reference: Sequence[float]) -> tuple[float, float]:
+    """``(difference, rotation)``: the least symmetric nearest-leg distance over rotations, and where."""
     a, b = np.asarray(bearings, np.float64), np.asarray(reference, np.float64)
-    best = math.inf
     # The cost is piecewise linear in the rotation with its minima where two legs align.
-    for shift in (b[:, None] - a[None, :]).ravel():
-        distance = np.abs((a[:, None] + shift - b[None, :] + 180.0) % 360.0 - 180.0)
-        best = min(best, float(distance.min(1).mean() + distance.min(0).mean()) / 2)
-    return best
+    shifts = (b[:, None] - a[None, :]).ravel()
+    distance = np.abs((a[None, :, None] + shifts[:, None, None] - b[None, None, :] + 180.0) % 360.0 - 180.0)
+    costs = (distance.min(2).mean(1) + distance.min(1).mean(1)) / 2
+    turns = 180.0 - (180.0 - shifts) % 360.0  # in (−180, 180]
+    best = float(costs.min())
+    tied = turns[costs <= best + _TIE_DEG]
+    return best, float(min(tied, key=lambda t: (abs(t), -t)))
 
 
 def rank(junctions: Iterable[Junction], like: str) -> list[Junction]:
-    """Junctions most like a built-in intersection first, each with its :func:`layout_difference`.
+    """Junctions most like a built-in intersection first, each with its :func:`layout_difference`
+    and :func:`layout_rotation` onto it.
 
     Order: difference in leg count, then layout difference, then node id.
     """
     reference = layout_bearings(like)
-    scored = [replace(j, difference=layout_difference(j.bearings, reference)) for j in junctions]
+    scored = []
+    for j in junctions:
+        difference, rotation = _best_turn(j.bearings, reference)
+        scored.append(replace(j, difference=difference, rotation=rotation))
     return sorted(scored, key=lambda j: (abs(j.legs - len(reference)), j.difference, j.node_id))
 
 
 def write_csv(junctions: Sequence[Junction], path: str | Path) -> None:
-    """The catalogue as CSV (:data:`CSV_COLUMNS`; lists joined by ``;``, difference empty unless ranked)."""
+    """The catalogue as CSV (:data:`CSV_COLUMNS`; lists joined by ``;``, difference and rotation empty
+    unless ranked)."""
     with open(path, "w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
         writer.writerow(CSV_COLUMNS)
         for j in junctions:
             writer.writerow([j.node_id, f"{j.lat:.7f}", f"{j.lon:.7f}", j.legs, ";".join(f"{b:.1f}" for b in j.bearings),
                              ";".join(j.road_classes), str(j.cycleway).lower(),
-                             "" if math.isnan(j.difference) else f"{j.difference:.2f}"])
+                             *("" if math.isnan(v) else f"{v:.2f}" for v in (j.difference, j.rotation))])
 
 
 def mix_name(target: str, count: int) -> str:
@@ -289,7 +331,7 @@ def mix_name(target: str, count: int) -> str:
 
 def datasets_snippet(junctions: Sequence[Junction], extract: str | Path, folder: str | Path,
                      size_m: tuple[float, float] = (130.0, 190.0), pool_size: int = 200000,
-                     mix_for: str | None = None) -> str:
+                     mix_for: str | None = None, align_to: str | None = None) -> str:
     """A ``datasets.yaml`` snippet: each junction an OSM scene and a dataset, and mixed dictionaries.
 
     Scene and dataset ``osm-<node id>`` (``osm:`` centred on the node, the paper's
@@ -300,6 +342,11 @@ def datasets_snippet(junctions: Sequence[Junction], extract: str | Path, folder:
     and splits, bit for bit, as the packaged family mixes) whose templates come from all
     the junctions: real junctions standing in for the paper's "other intersections".
 
+    Aligned: with a layout to align to (``mix_for``, else ``align_to``), each scene is turned
+    (``rotation_deg``, :func:`layout_rotation`) so that its legs lie along that built-in
+    intersection's, and its cameras' pans and homographies mean what the intersection's do;
+    without one, north up.
+
     Args:
         junctions: the junctions, e.g. the top K of :func:`rank`.
         extract: the extract's path.
@@ -308,23 +355,30 @@ def datasets_snippet(junctions: Sequence[Junction], extract: str | Path, folder:
         pool_size: each dataset's pool (the packaged intersections' 200,000 where ``mix_for``
             is given: ``same_pool_as`` requires the same).
         mix_for: a built-in intersection, e.g. ``intersection-1``.
+        align_to: a built-in intersection the scenes are turned onto when ``mix_for`` is None
+            (e.g. ``--like``'s).
 
     Returns:
         YAML text with top-level ``scenes``, ``datasets`` and (K ≥ 2, or ``mix_for``)
         ``mixed_dictionaries``.
 
     Raises:
-        SceneError: ``mix_for`` is not a built-in intersection.
+        SceneError: ``mix_for`` or ``align_to`` is not a built-in intersection.
     """
     names = [f"osm-{j.node_id}" for j in junctions]
     file = os.path.relpath(Path(extract).resolve(), Path(folder).resolve())
-    scenes = {name: {"osm": {"file": file, "center": [round(j.lat, 7), round(j.lon, 7)], "size_m": list(size_m),
-                             "pixels_per_metre": 10.0, "seed": 0}}
-              for name, j in zip(names, junctions, strict=True)}
+    align = mix_for or align_to
+    reference = layout_bearings(align) if align else None
+    scenes = {}
+    for name, j in zip(names, junctions, strict=True):
+        osm: dict[str, Any] = {"file": file, "center": [round(j.lat, 7), round(j.lon, 7)], "size_m": list(size_m),
+                               "pixels_per_metre": 10.0, "seed": 0}
+        if reference is not None:
+            osm["rotation_deg"] = round(layout_rotation(j.bearings, reference), 2)
+        scenes[name] = {"osm": osm}
     datasets = {name: {"scene": name, "grid": "intersection", "pool_size": pool_size} for name in names}
     snippet: dict[str, Any] = {"scenes": scenes, "datasets": datasets}
     if mix_for is not None:
-        layout_bearings(mix_for)  # names the choices
         target = mix_name(mix_for, len(names))
         datasets[target] = {"scene": mix_for, "grid": "intersection", "pool_size": pool_size, "same_pool_as": mix_for}
         snippet["mixed_dictionaries"] = {target: names}
@@ -333,6 +387,9 @@ def datasets_snippet(junctions: Sequence[Junction], extract: str | Path, folder:
     header = (f"# {len(names)} road junctions of {Path(extract).name} (synthcal osm-junctions). Merge each block into\n"
               "# the same block of a datasets.yaml in this folder (osm file paths are relative to it).\n"
               "# Map data © OpenStreetMap contributors, ODbL.\n")
+    if align:
+        header += (f"# Aligned: each osm scene is turned by rotation_deg (clockwise) so that its legs lie along {align}'s\n"
+                   f"# (the turn that minimises difference_deg), so its templates' poses are in {align}'s frame.\n")
     if mix_for is not None:
         header += (f"# Bench label mixed-{mix_name(mix_for, len(names))}: {mix_for}'s train/test sets, templates from "
                    "these junctions.\n")

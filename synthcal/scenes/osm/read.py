@@ -3,6 +3,12 @@
 The frame (normative): a transverse Mercator projection centred on ``center``
 (WGS84) gives metres east ``E`` and north ``N``; bird's-eye pixel
 ``u = (W − 1)/2 + E·ppm``, ``v = (H − 1)/2 − N·ppm`` (north up), ``W, H = size_m · ppm``.
+A frame may be *turned* by ``rotation_deg`` ``r`` about the centre (default 0, the
+normative north-up frame): ``(E, N)`` are then the projected metres turned clockwise
+(as seen from above) by ``r``, ``E' = E cos r + N sin r``, ``N' = −E sin r + N cos r``,
+so a line at bearing ``b`` (clockwise from north) runs at screen bearing ``b + r``
+(clockwise from up: the image-angle sense, +u toward +v). Geometry is turned before it
+is rasterised, never resampled as an image.
 
 :func:`read_osm` reads ``.osm``, ``.osm.pbf`` or ``.osm.bz2`` with pyosmium in one
 streaming pass (two when the file holds multipolygon relations: osmium's area
@@ -46,6 +52,15 @@ __all__ = ["Frame", "Feature", "OsmData", "read_osm", "located_runs", "MARGIN_M"
 MARGIN_M = 40.0
 
 
+def _turn(east: np.ndarray, north: np.ndarray, angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points turned clockwise (seen from above, north up) by ``angle_deg`` about the origin."""
+    if angle_deg == 0.0:
+        return east, north  # the north-up frame's numbers, bit for bit
+    a = math.radians(angle_deg)
+    cos, sin = math.cos(a), math.sin(a)
+    return east * cos + north * sin, north * cos - east * sin
+
+
 @dataclass(frozen=True)
 class Frame:
     """The OSM scene's frame: centre (WGS84 degrees), size in metres and scale.
@@ -54,6 +69,7 @@ class Frame:
         lat, lon: the centre.
         width_m, height_m: the window (east–west, north–south), metres.
         ppm: pixels per metre.
+        rotation_deg: the turn ``r`` of the frame (module docstring): a bearing ``b`` is drawn at ``b + r``.
     """
 
     lat: float
@@ -61,6 +77,7 @@ class Frame:
     width_m: float
     height_m: float
     ppm: float
+    rotation_deg: float = 0.0
 
     @property
     def width(self) -> int:
@@ -86,9 +103,9 @@ class Frame:
             Transformer.from_crs(src, dst, always_xy=True)
 
     def metres(self, lon: np.ndarray | float, lat: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-        """``(E, N)`` metres of WGS84 ``(lon, lat)`` degrees."""
+        """``(E, N)`` metres of WGS84 ``(lon, lat)`` degrees, in the turned frame."""
         east, north = self._transformer().transform(np.asarray(lon, float), np.asarray(lat, float))
-        return np.asarray(east, float), np.asarray(north, float)
+        return _turn(np.asarray(east, float), np.asarray(north, float), self.rotation_deg)
 
     def pixels(self, east: np.ndarray | float, north: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Bird's-eye ``(u, v)`` of frame metres ``(E, N)``."""
@@ -114,7 +131,7 @@ class Frame:
         x0, y0, x1, y1 = self.window(margin_m).bounds
         xs = np.array([x0, x1, x1, x0, 0.0, 0.0, x0, x1])
         ys = np.array([y0, y0, y1, y1, y0, y1, 0.0, 0.0])
-        lon, lat = self._transformer(inverse=True).transform(xs, ys)
+        lon, lat = self._transformer(inverse=True).transform(*_turn(xs, ys, -self.rotation_deg))
         pad = 1e-6  # degrees (≈ 0.1 m): the corners' rounding
         return float(np.min(lon)) - pad, float(np.min(lat)) - pad, float(np.max(lon)) + pad, float(np.max(lat)) + pad
 

@@ -23,6 +23,7 @@ from synthcal.config.spec import DatasetSpec
 from synthcal.config.vocabulary import (
     BUILTIN_SCENE_NAMES,
     POSE_SET_SPLITS,
+    POSE_VALIDATION_FRACTION,
     ConfigError,
     Dictionary,
     brief,
@@ -224,8 +225,12 @@ class LoadedConfig:
         """Pool size and split sizes of a dataset of given poses.
 
         The pool is every pose (profiles do not cap it) and train/test are the
-        poses' own partition (:data:`POSE_SET_SPLITS`); only the dictionary size
-        comes from the profile, the entry (``entry_splits``) or the defaults.
+        poses' own partition (:data:`POSE_SET_SPLITS`); the dictionary size comes
+        from the profile, the entry (``entry_splits``) or the defaults. Validation
+        is carved from the given train part (``train`` stays its full size: the
+        split drawer keeps the rest for training): the entry's
+        ``splits.validation`` if it sets one, else :data:`POSE_VALIDATION_FRACTION`
+        of it — not the profile's or the defaults', sized for synthetic pools.
         """
         key = f"{self.origin('datasets', dataset)}: datasets.{dataset}"
         if pool_size is not None:
@@ -238,8 +243,13 @@ class LoadedConfig:
                     raise ConfigError(
                         f"{key}.splits.{name}: the poses {poses!r} fix {name} at {fixed[name]} (value {value})"
                     )
-        # the poses fill the pool: no sample is left for a validation set
-        return sum(fixed.values()), splits.model_copy(update={**fixed, "validation": 0})
+        validation = round(POSE_VALIDATION_FRACTION * fixed["train"])
+        if entry_splits is not None and "validation" in entry_splits.model_fields_set:
+            validation = entry_splits.validation
+        if validation >= fixed["train"]:
+            raise ConfigError(f"{key}.splits.validation: carved from the poses' {fixed['train']} train samples, "
+                              f"it must leave at least one for training (value {validation})")
+        return sum(fixed.values()), splits.model_copy(update={**fixed, "validation": validation})
 
 
 def _check_references(where: Where, config: Config) -> None:

@@ -45,6 +45,7 @@ __all__ = [
     "BUILTIN_LAYOUT_NAMES",
     "BUILTIN_SCENE_NAMES",
     "POSE_SET_SPLITS",
+    "POSE_VALIDATION_FRACTION",
     "READINGS",
     "METRICS",
     "DESCRIPTIONS",
@@ -113,6 +114,9 @@ BUILTIN_SCENE_NAMES: tuple[str, ...] = (
 # (worldcup2014: the 209 train_val + 186 test frames; synthcal.generate.worldcup
 # checks its annotation files against these).
 POSE_SET_SPLITS: dict[str, dict[str, int]] = {"worldcup2014": {"train": 209, "test": 186}}
+# The share of a pose set's train part carved out as the validation set when the dataset
+# entry sets no splits.validation (worldcup2014: round(0.2 · 209) = 42, leaving 167 to train).
+POSE_VALIDATION_FRACTION = 0.2
 
 
 class ConfigError(ValueError):

@@ -44,7 +44,9 @@ splits hold ascending pool indices of a pool drawn in random camera order, so a
 prefix is a random subset, the same one for every estimator and seed run). A
 mixed dictionary is cut round-robin over its sources, so that each source keeps
 an equal share. Train and test of a dataset of given poses (``worldcup2014``) are
-never cut: they are the poses' own partition. A split smaller than its cap is used
+never cut: they are the poses' own partition (less the validation set carved from
+train, whose remaining size then stands in ``limits``, so that runs on train sets
+from before and after the carving have different ids). A split smaller than its cap is used
 whole. :func:`split_sizes` says what a run will use; :func:`plan_lines` says it
 for a whole sweep, with each training's budget (:func:`training_budget`).
 
@@ -97,8 +99,9 @@ from synthcal.estimators.options import (
     parse_estimator_spec,
 )
 from synthcal.estimators.version import estimator_version
-from synthcal.store import open_store
+from synthcal.store import array_at, group_at, open_store
 from synthcal.store.splits import (
+    VALIDATION,
     SplitError,
     drawn_seeds,
     pool_dictionary_indices,
@@ -244,13 +247,27 @@ def check_device(name: str) -> None:
 
 def _store_limits(store: Path, group: Any, limits: dict[str, int] | None) -> dict[str, int] | None:
     """The caps that apply to a store: all of them, but not train/test of a dataset of given poses,
-    nor a validation size of 0 (sizes without a validation set keep their runs' ids)."""
-    if not limits:
-        return None
-    limits = {k: v for k, v in limits.items() if k != "validation" or v}
+    nor a validation size of 0 (sizes without a validation set keep their runs' ids). A poses
+    store whose splits carve validation from its train part gets its train size instead
+    (:func:`_carved_train`)."""
+    limits = {k: v for k, v in (limits or {}).items() if k != "validation" or v}
     if store_spec(group, store).poses is not None:
-        limits = {k: v for k, v in limits.items() if k not in ("train", "test")}
+        limits = {k: v for k, v in limits.items() if k not in ("train", "test")} | _carved_train(group)
     return dict(sorted(limits.items())) or None
+
+
+def _carved_train(group: Any) -> dict[str, int]:
+    """``{"train": n}`` when a poses store's splits hold a validation set, else ``{}``.
+
+    Validation is carved from the given train part, so such runs train on fewer samples
+    than the runs recorded before the store had one: the size in their ids keeps those
+    from being reused for them. Every seed carves the same number.
+    """
+    for seed in drawn_seeds(group):
+        sub = group_at(group, f"splits/seed-{seed}")
+        if VALIDATION in sub:
+            return {"train": int(array_at(sub, "train").shape[0])}
+    return {}
 
 
 def expand_runs(

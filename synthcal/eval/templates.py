@@ -8,7 +8,10 @@ So the template each picked is found again without the estimators' help
 the estimate (both scaled to unit norm, sign fixed; :data:`TOLERANCE`). Poses
 come from the stores (``camera/pan_deg``): the test image's from the target
 store at its pool index, a template's from the store it was drawn from (a mixed
-dictionary's source store) — each pan as its own store records it.
+dictionary's source store) — each pan as its own store records it. A run searched
+the dictionary the loaders give it (:func:`synthcal.data.load_split`): the mixed one
+for a ``mixed-*`` label, and for a store without an own dictionary
+(``worldcup2014``, whose templates are the soccer store's).
 
 Two templates per test image define the diagnostics:
 
@@ -168,6 +171,24 @@ def _image_size(store: str) -> tuple[int, int]:
 
 
 @cache
+def _own_dictionary(store: str) -> bool:
+    from synthcal.store import open_store
+    from synthcal.store.splits import store_spec
+
+    return store_spec(open_store(store), Path(store)).own_dictionary
+
+
+def _reads_mixed(run: Mapping[str, Any], store: str) -> bool:
+    """Whether a run searched a mixed dictionary: its ``mixed`` as recorded, else (None: the store's default)
+    the loaders' rule (:func:`synthcal.data.load_split`) — mixed where the store has no own dictionary, as
+    ``worldcup2014``, whose templates come from the soccer store."""
+    if str(run["dataset"]).startswith("mixed-"):
+        return True
+    mixed = run.get("mixed")
+    return not _own_dictionary(store) if mixed is None else bool(mixed)
+
+
+@cache
 def _dictionary(store: str, seed: int, mixed: bool) -> tuple[np.ndarray, np.ndarray]:
     """A seed's dictionary: (K, 3, 3) homographies and (K,) pans, each from the store it was drawn from."""
     from synthcal.store import read_mixed_dictionary, read_split_indices
@@ -204,9 +225,8 @@ def _picks(results: Path, run_id: str, record: Mapping[str, Any]) -> pd.DataFram
     run = record["run"]
     try:
         per_image = pd.read_csv(results / "runs" / run_id / "metrics.csv", usecols=["pool_index", *_H_COLUMNS])
-        mixed = bool(run.get("mixed")) or str(run["dataset"]).startswith("mixed-")
         store = _store_path(str(run["store"]), results)
-        homographies, pans = _dictionary(store, int(run["seed"]), mixed)
+        homographies, pans = _dictionary(store, int(run["seed"]), _reads_mixed(run, store))
         pool_index = per_image["pool_index"].to_numpy()
         test_pans = _pans(store)[pool_index]
         best = best_pose_templates(_homographies(store)[pool_index], homographies, _image_size(store))

@@ -5,12 +5,17 @@ Layout inside the store: :mod:`synthcal.store.splits` (which reads it).
 The three own sets of a seed are disjoint, drawn uniformly without replacement from
 the pool with ``SeedSequence(pool_seed, spawn_key=(2, s))`` — a stream independent
 of the pool's cameras ``(0,)`` and of the per-sample appearance ``(1, i)``. A dataset
-of given poses (``worldcup2014``) has fixed train/test sets, the same for every seed.
+of given poses (``worldcup2014``) has fixed train/test parts, the same for every seed
+(less, in train, the seed's validation set: below).
 
 **Validation.** A fourth set, drawn *after* the three from what they leave, with its
 own stream ``SeedSequence(pool_seed, spawn_key=(5, s))`` (``(4, i)`` is the grid's):
 the three are exactly what they were before validation sets existed, so drawing a
 store's splits again adds ``validation`` and changes nothing else. Size 0: none.
+A dataset of given poses has nothing left outside its fixed train/test sets, so
+its validation set is carved from the given **train** part (World Cup 2014's
+``train_val``) with the same stream, and ``train`` keeps the rest; ``test`` stays
+the given one. Adding validation to such a store therefore shrinks its train set.
 
 **Mixed dictionaries.** The ``K`` templates (``K`` = the dictionary size) come from
 the pools of the source datasets, an equal share from each (the first ``K mod n``
@@ -115,7 +120,8 @@ def draw_indices(
         sizes: how many train / test / dictionary samples.
         pool_seed: the store's seed.
         split_seed: the cycle's seed ``s``.
-        fixed: given train/test sets (poses datasets); drawn otherwise.
+        fixed: given train/test sets (poses datasets; ``sizes.train`` is then the
+            given train part, validation included); drawn otherwise.
         own_dictionary: draw a ``dictionary`` from the pool too.
 
     Returns:
@@ -146,20 +152,29 @@ def draw_indices(
     for name, part in zip(drawn_names, np.split(chosen, np.cumsum(counts)[:-1]), strict=False):
         out[name] = np.sort(part)
     sets = {name: out[name] for name in names}
-    if sizes.validation:
-        sets[VALIDATION] = _draw_validation(pool_size, sizes.validation, pool_seed, split_seed, sets)
+    if not sizes.validation:
+        return sets
+    if "train" in fixed:  # given poses fill the pool: validation is carved from their train part
+        given = sets["train"]
+        if sizes.validation >= len(given):
+            raise ValueError(f"validation {sizes.validation} samples asked for, but the given train part holds "
+                             f"{len(given)} and training needs at least one (set splits.validation, or "
+                             f"`synthcal split --validation`)")
+        sets[VALIDATION] = _draw_validation(given, sizes.validation, pool_seed, split_seed)
+        sets["train"] = np.setdiff1d(given, sets[VALIDATION])
+        return sets
+    free = np.setdiff1d(np.arange(pool_size, dtype=np.int64), np.concatenate(list(sets.values())))
+    if sizes.validation > len(free):
+        raise ValueError(f"validation {sizes.validation} samples asked for, but only {len(free)} of N = {pool_size} "
+                         f"are left outside {'/'.join(sets)} (set splits.validation, or `synthcal split --validation`)")
+    sets[VALIDATION] = _draw_validation(free, sizes.validation, pool_seed, split_seed)
     return sets
 
 
-def _draw_validation(pool_size: int, count: int, pool_seed: int, split_seed: int,
-                     taken: dict[str, np.ndarray]) -> np.ndarray:
-    """(count,) ascending int64 pool indices outside every set of ``taken``, from their own stream."""
-    free = np.setdiff1d(np.arange(pool_size, dtype=np.int64), np.concatenate(list(taken.values())))
-    if count > len(free):
-        raise ValueError(f"validation {count} samples asked for, but only {len(free)} of N = {pool_size} are "
-                         f"left outside {'/'.join(taken)} (set splits.validation, or `synthcal split --validation`)")
+def _draw_validation(candidates: np.ndarray, count: int, pool_seed: int, split_seed: int) -> np.ndarray:
+    """(count,) ascending int64 pool indices among ``candidates`` (ascending), from validation's own stream."""
     rng = np.random.default_rng(np.random.SeedSequence(pool_seed, spawn_key=(5, split_seed)))
-    return np.sort(free[rng.choice(len(free), size=count, replace=False)])
+    return np.sort(candidates[rng.choice(len(candidates), size=count, replace=False)])
 
 
 def draw_mixed(
@@ -388,7 +403,8 @@ def _check_request(store: Path, seeds: Sequence[int], sizes: SplitSizes, fixed: 
         raise SplitError(f"{store}: split seeds must be integers ≥ 0 (value {list(seeds)})")
     for name, index in fixed.items():
         if getattr(sizes, name) != len(index):
-            raise SplitError(f"{store}: splits.{name}: the poses fix {name} at {len(index)} samples "
+            carved = " (validation included: it is carved from it)" if name == "train" else ""
+            raise SplitError(f"{store}: splits.{name}: the poses fix {name} at {len(index)} samples{carved} "
                              f"(value {getattr(sizes, name)})")
 
 

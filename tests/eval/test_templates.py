@@ -29,11 +29,12 @@ def test_identify_templates_up_to_scale_and_sign():
     assert identify_templates(estimates, dictionary).tolist() == [3, 0, 19, 7, 7, -1, -1]
 
 
-def _fake_run(results: Path, store: Path, model: str, test, estimates: np.ndarray) -> None:
-    run_id = f"intersection-1_{model}_s0"
+def _fake_run(results: Path, store: Path, model: str, test, estimates: np.ndarray,
+              dataset: str = "intersection-1") -> None:
+    run_id = f"{dataset}_{model}_s0"
     folder = results / "runs" / run_id
     folder.mkdir(parents=True)
-    run = {"dataset": "intersection-1", "store": str(store), "mixed": None, "model": model, "estimator": model,
+    run = {"dataset": dataset, "store": str(store), "mixed": None, "model": model, "estimator": model,
            "seed": 0, "training": None, "loss": None, "matching": "top-mse", "segmentation": "ground-truth",
            "profile": "smoke"}
     (folder / "run.json").write_text(json.dumps({"run": run, "id": run_id, "status": "ok",
@@ -137,3 +138,27 @@ def test_mixed_dictionary_templates_take_their_pose_from_their_source_store(smok
     test_pans = zarr.open_group(str(stores["intersection-1"]), mode="r")["camera/pan_deg"][:][np.asarray(test.indices)]
     errors = np.abs(np.rad2deg(np.angle(np.exp(1j * np.deg2rad(template_pans[picks] - test_pans)))))
     assert diagnostics["pan_error"].iloc[0] == pytest.approx(np.median(errors))
+
+
+def test_world_cup_templates_come_from_the_soccer_store(smoke_stores, tmp_path):
+    stores = smoke_stores.copy(["soccer", "worldcup2014"], tmp_path / "data")
+    store = stores["worldcup2014"]
+    draw_splits(store, seeds=[0])
+    dictionary, test = load_split(store, "dictionary", 0), load_split(store, "test", 0)  # as a run loads them
+    assert dictionary.sources == ("soccer",)
+    truths = zarr.open_group(str(store), mode="r")["homography"][:][np.asarray(test.indices)]
+    best = _best_pose_by_opencv(truths, dictionary.homographies, (64, 36))
+    picks = np.where(np.arange(len(best)) % 3 == 0, np.maximum(best, 0), np.arange(len(best)) % len(dictionary))
+    results = tmp_path / "results"
+    # the run records mixed None (the store's default), as bench does for worldcup2014
+    _fake_run(results, store, "retrieved", test, dictionary.homographies[picks] * 2.0, dataset="worldcup2014")
+    (row,) = template_diagnostics(collect_results(results), results, mixed_only=False).to_dict("records")
+    assert row["dataset"] == "worldcup2014" and row["seeds"] == 1
+    scored = best >= 0
+    assert 0 < row["best_pose"] < 100
+    assert row["best_pose"] == pytest.approx(100.0 * np.mean(picks[scored] == best[scored]))
+    # template pans from the soccer store, test pans from World Cup's own
+    template_pans = zarr.open_group(str(stores["soccer"]), mode="r")["camera/pan_deg"][:][np.asarray(dictionary.indices)]
+    test_pans = zarr.open_group(str(store), mode="r")["camera/pan_deg"][:][np.asarray(test.indices)]
+    errors = np.abs(np.rad2deg(np.angle(np.exp(1j * np.deg2rad(template_pans[picks] - test_pans)))))
+    assert row["pan_error"] == pytest.approx(np.median(errors))

@@ -8,11 +8,11 @@ import pytest
 import yaml
 
 from synthcal.cli import main
-from synthcal.config import ConfigError, load_config
+from synthcal.config import ConfigError, SplitSizes, load_config
 from synthcal.data import load_split
 from synthcal.generate.camera import homography
 from synthcal.generate.pipeline import load_scene
-from synthcal.generate.splits import SplitsResized, draw_splits
+from synthcal.generate.splits import SplitsResized, draw_indices, draw_splits
 from synthcal.generate.worldcup import (
     METRES_PER_YARD,
     bird_eye_to_pitch,
@@ -140,11 +140,42 @@ def test_store_holds_the_converted_poses(stores):
     assert spec.config_hash() == group.attrs["config_hash"]
 
 
-def test_train_test_are_the_real_poses_for_every_seed(stores):
+def test_validation_is_carved_from_train_val_and_test_is_the_papers(stores):
     store = stores["worldcup2014"]
+    validations = []
     for seed in SEEDS:
-        np.testing.assert_array_equal(read_split_indices(store, "train", seed), np.arange(209))
+        train, validation = (read_split_indices(store, split, seed) for split in ("train", "validation"))
         np.testing.assert_array_equal(read_split_indices(store, "test", seed), np.arange(209, 395))
+        assert len(validation) == 42 and len(np.intersect1d(train, validation)) == 0  # 20 % of train_val
+        np.testing.assert_array_equal(np.union1d(train, validation), np.arange(209))
+        validations.append(validation)
+    assert len({tuple(v) for v in validations}) == len(SEEDS), "each seed draws its own validation set"
+    # Drawn from the seed alone: a second draw of seed 3 gives the same sets.
+    again = draw_indices(395, SplitSizes(train=209, test=186, validation=42), open_store(store).attrs["seed"], 3,
+                         {"train": np.arange(209), "test": np.arange(209, 395)}, own_dictionary=False)
+    np.testing.assert_array_equal(again["validation"], validations[3])
+    np.testing.assert_array_equal(again["train"], read_split_indices(store, "train", 3))
+
+
+def test_split_adds_validation_to_a_store_drawn_before_it(stores, tmp_path, capsys):
+    import shutil
+
+    for path in stores.values():
+        shutil.copytree(path, tmp_path / path.name)
+    store = tmp_path / "worldcup2014.zarr"
+    with pytest.warns(SplitsResized):  # as drawn before validation sets existed
+        draw_splits(store, seeds=[0], sizes=SplitSizes(train=209, test=186, dictionary=12, validation=0))
+    np.testing.assert_array_equal(read_split_indices(store, "train", 0), np.arange(209))
+    with pytest.raises(SplitError, match=f"{store}: splits/seed-0/validation: .*`synthcal split {store} --validation N`"):
+        read_split_indices(store, "validation", 0)
+    with pytest.warns(SplitsResized, match=r"replacing its splits \(train 209, test 186, .*\) with train 167, test 186"):
+        assert main(["split", str(store), "--seeds", "0", "--validation", "42"]) in (0, None)
+    fresh = stores["worldcup2014"]  # drawn with validation from the start: the same sets
+    for split in ("train", "validation"):
+        np.testing.assert_array_equal(read_split_indices(store, split, 0), read_split_indices(fresh, split, 0))
+    np.testing.assert_array_equal(read_split_indices(store, "test", 0), np.arange(209, 395))
+    with pytest.raises(SplitError, match=r"validation 209 samples asked for, but the given train part holds 209"):
+        draw_splits(store, seeds=[0], sizes=SplitSizes(train=209, test=186, dictionary=12, validation=209))
 
 
 def test_dictionary_comes_from_the_soccer_pool(stores):
@@ -165,7 +196,6 @@ def test_paper_dictionary_is_the_whole_soccer_pool(stores, tmp_path):
     for path in stores.values():
         shutil.copytree(path, tmp_path / path.name)
     store = tmp_path / "worldcup2014.zarr"
-    from synthcal.config import SplitSizes
 
     with pytest.warns(SplitsResized, match="mixed dictionary 12\\) with .*mixed dictionary 48"):
         draw_splits(store, seeds=[0], sizes=SplitSizes(train=209, test=186, dictionary=48))
@@ -215,7 +245,14 @@ def test_fixed_split_sizes_in_config(tmp_path):
     with pytest.raises(ConfigError, match="pool_size: the poses 'worldcup2014' fix the pool size"):
         config.resolve("worldcup2014", "smoke", pool_size=10)
     spec = config.resolve("worldcup2014", "smoke")
-    assert (spec.pool_size, spec.splits.train, spec.splits.test) == (395, 209, 186)
+    assert (spec.pool_size, spec.splits.train, spec.splits.test, spec.splits.validation) == (395, 209, 186, 42)
+    path = write_config(tmp_path, scene="soccer", poses="worldcup2014", dictionary_from="soccer",
+                        splits={"validation": 30})
+    assert load_config(path).resolve("worldcup2014", "smoke").splits.validation == 30
+    path = write_config(tmp_path, scene="soccer", poses="worldcup2014", dictionary_from="soccer",
+                        splits={"validation": 209})
+    with pytest.raises(ConfigError, match=r"datasets.worldcup2014.splits.validation: .* 209 train .* \(value 209\)"):
+        load_config(path).resolve("worldcup2014")
     assert spec.mixed_sources == ("soccer",) and not spec.own_dictionary
     assert config.resolve("worldcup2014", "paper").splits.dictionary == 4500
 
@@ -236,3 +273,33 @@ def test_worldcup_stats_cli(capsys, tmp_path):
                  "--count", "2"]) == 0
     out = capsys.readouterr().out
     assert "of 395" in out and montage.is_file()
+
+
+def test_harness_selection_reads_world_cups_validation(stores, tmp_path):
+    import shutil
+
+    from synthcal.data.loaders import read_scene
+    from synthcal.eval.harness import expand_runs
+    from synthcal.eval.isolation import load_run_split
+
+    config = load_config(ROOT / "datasets.yaml")
+    settings = {**config.training("smoke").settings(), "select": {"learning_rate": [1e-4, 1e-3]}}
+
+    def run_of(folder: Path):
+        (run,) = expand_runs(folder, ["worldcup2014"], ["proposed"], [0], "smoke", settings,
+                             segmentations=["ground-truth"], device="cpu", limits=config.split_caps("smoke"))
+        return run
+
+    run = run_of(stores["worldcup2014"].parent)
+    assert run.limits == {"dictionary": 12, "train": 167, "validation": 4}  # smoke caps validation, never train
+    scene = read_scene(run.store)
+    train, validation, test = (load_run_split(run, split, scene) for split in ("train", "validation", "test"))
+    assert (len(train), len(validation), len(test)) == (167, 4, 186)
+    assert not set(validation.indices) & (set(train.indices) | set(test.indices))
+    # Runs on the train set of before validation existed (all 209) keep other ids: never reused for these.
+    for path in stores.values():
+        shutil.copytree(path, tmp_path / path.name)
+    with pytest.warns(SplitsResized):
+        draw_splits(tmp_path / "worldcup2014.zarr", sizes=SplitSizes(train=209, test=186, dictionary=12))
+    before = run_of(tmp_path)
+    assert before.limits == {"dictionary": 12, "validation": 4} and before.id != run.id

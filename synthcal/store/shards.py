@@ -317,7 +317,7 @@ def _pread(fd: int, length: int, offset: int, path: Path) -> np.ndarray:
     """``length`` bytes at ``offset`` into a fresh writable array (google_crc32c and the decoders take it
     without a copy; :func:`synthcal.store.blosc_lz4.decode_into` writes into it)."""
     buffer = np.empty(length, np.uint8)
-    if os.preadv(fd, [memoryview(buffer)], offset) != length:
+    if os.preadv(fd, [buffer.data], offset) != length:
         raise CorruptStore(f"{path}: ended before byte {offset + length} that its index points to (the file "
                            f"changed while it was read?)")
     return buffer

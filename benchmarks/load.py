@@ -10,7 +10,9 @@ draws a 4,500 / 50 / 50 split, and times in the same run:
 both from the page cache (each is read once before timing), best of ``--repeat``
 (with ``--zarr`` also zarr-python's own orthogonal selection, once).
 Target: ratio ≤ 2.5, checksums verified. Also timed: the shard reader alone with 1 and with 2
-threads; and items/s through a ``DataLoader(num_workers=2)``.
+threads; the restated targets of issue 22 (``read_rows`` alone ÷ numpy.load, the codec's share, and
+load_split ÷ ``read_rows`` alone, target ≤ 1.1; benchmarks/README.md); and items/s through a
+``DataLoader(num_workers=2)``.
 
 Run: .venv/bin/python benchmarks/load.py [--repeat 3] [--scratch DIR]
 """

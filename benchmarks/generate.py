@@ -37,8 +37,9 @@ import cv2
 import numpy as np
 
 from synthcal.config import load_config
-from synthcal.generate.pipeline import generate_dataset, load_scene
+from synthcal.generate.pipeline import generate_dataset, load_scene, render_samples
 from synthcal.generate.render import supersampled
+from synthcal.store.shards import encode_shard
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -52,6 +53,20 @@ def bare_warps(scene, homographies: np.ndarray, image_size: tuple[int, int], sup
     for H in homographies:
         cv2.warpPerspective(scene.image, supersampled(H, supersample), fine, flags=cv2.INTER_LINEAR)
         cv2.warpPerspective(scene.semantic, H, image_size, flags=cv2.INTER_NEAREST)
+    return time.perf_counter() - started
+
+
+def bare_stages(scene, spec, homographies: np.ndarray, layouts: dict) -> float:
+    """Seconds for what every stored byte needs, in this process: ``render_samples`` (both warps, the
+    float64 semantic lookup, the appearance step) and ``encode_shard`` (LZ4 + CRC32C), shard by shard;
+    no worker process, no store skeleton, no file written. The restated baseline of issue 22 (the bare
+    warps lack four of these stages, which no faster pipeline can drop: benchmarks/README.md)."""
+    cv2.setNumThreads(1)
+    started = time.perf_counter()
+    for first in range(0, len(homographies), spec.shard_size):
+        images, semantics = render_samples(scene, homographies[first:first + spec.shard_size], first, spec)
+        encode_shard(layouts["image"], images)
+        encode_shard(layouts["semantic"], semantics)
     return time.perf_counter() - started
 
 
@@ -75,7 +90,8 @@ def peak_rss_mib(args: list[str]) -> float:
 def main() -> None:
     # Imported here, not at the top: each spawned worker imports this script again, and a
     # top-level open_store would load zarr in every worker as no `synthcal generate` does.
-    from synthcal.store import open_store
+    from synthcal.store import array_at, open_store
+    from synthcal.store.shards import shard_layout
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=2000)
@@ -99,12 +115,16 @@ def main() -> None:
             one = timed_generate(spec, work / "w1", workers=1)
             one_q = timed_generate(quarter, work / "w1q", workers=1)
             if homographies is None:
-                homographies = open_store(work / "w1" / f"{spec.name}.zarr")["homography"][:]
+                group = open_store(work / "w1" / f"{spec.name}.zarr")
+                homographies = group["homography"][:]
+                layouts = {name: shard_layout(array_at(group, name)) for name in ("image", "semantic")}
             baseline = bare_warps(scene, homographies, spec.image_size, spec.supersample) / spec.pool_size
+            stages = bare_stages(scene, spec, homographies, layouts) / spec.pool_size
             two = timed_generate(spec, work / "w2", workers=2)
             two_q = timed_generate(quarter, work / "w2q", workers=2)
             one_m, two_m = (one - one_q) / marginal, (two - two_q) / marginal
             rows.append({"baseline": baseline, "one_m": one_m, "one": one / spec.pool_size, "two_m": two_m,
+                         "stages": stages, "stages_ratio": one / spec.pool_size / stages,
                          "ratio": one_m / baseline, "wall_ratio": one / spec.pool_size / baseline,
                          "scaling": one_m / two_m, "wall_scaling": one / two})
         store = work / "w1" / f"{spec.name}.zarr"
@@ -135,6 +155,9 @@ def main() -> None:
           f"(target ≤ 2)")
     print(f"generate, 1 worker, wall      {summary('one', 1e3)} ms/sample = {summary('wall_ratio')} × baseline "
           f"(start-up included, N = {spec.pool_size})")
+    print(f"bare stages (render_samples + encode_shard, in process) {summary('stages', 1e3)} ms/sample "
+          f"= {summary('stages', 1 / np.median([row['baseline'] for row in rows]))} × bare warps")
+    print(f"generate, 1 worker, wall ÷ bare stages {summary('stages_ratio')} (restated target ≤ 1.25)")
     print(f"generate, 2 workers, marginal {summary('two_m', 1e3)} ms/sample = {summary('scaling')} × one worker "
           f"(target ≥ 1.7); wall {summary('wall_scaling')} ×")
     print(f"peak RSS, whole CLI run     N={small}: {rss_small:.0f} MiB   N={large}: {rss_large:.0f} MiB   "

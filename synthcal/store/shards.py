@@ -372,7 +372,7 @@ def read_rows(array: zarr.Array, index: np.ndarray, threads: int | None = None) 
     Args:
         array: a store array of shape (N, ...).
         index: (K,) int indices in ``0..N-1``.
-        threads: decoding threads (default: :func:`read_threads`).
+        threads: decoding threads (default: :func:`read_threads`; one for an uncompressed array).
 
     Returns:
         (K, ...) array of ``array``'s dtype, in ``index``'s order.
@@ -398,7 +398,9 @@ def read_rows(array: zarr.Array, index: np.ndarray, threads: int | None = None) 
         shard = int(shards[positions[0]])
         _read_shard(layout, shard, index[positions] - shard * layout.shard_size, positions, out)
 
-    workers = max(1, min(threads or read_threads(), len(groups)))
+    # Uncompressed rows are a Python loop of per-row CRC calls holding the GIL: a second thread only adds
+    # switching (homography of a 4,500-sample split: 4.4 ms on one thread, 5.8–14 ms on two).
+    workers = 1 if layout.codec is None else max(1, min(threads or read_threads(), len(groups)))
     if workers == 1:
         for positions in groups:
             read(positions)

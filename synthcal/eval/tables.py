@@ -61,9 +61,9 @@ images it counts as valid: a cell whose completeness (mean over seeds) is under
 as displayed, so ties share it) is bold — Markdown ``**…**``, LaTeX ``\\textbf{…}`` —
 when the row has at least two values and the highest is above 0 (a row of zeros,
 every run failed, has no best). ``compare_paper=True`` adds the published figure
-beside each column ("paper"), joined on every key; the paper's IoU is undefined
-beyond its prose, so the comparison is offered for each of its three readings
-(``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8).
+beside each column ("paper"), joined on every key (:func:`paper_figure`); the
+paper's IoU is undefined beyond its prose, so the comparison is offered for each
+of its three readings (``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8).
 
 Below the table
 ---------------

@@ -61,7 +61,7 @@ from synthcal.eval.tables import (
     MISSING,
     PAIR_KEYS,
     order_values,
-    paper_results,
+    paper_figure,
     text_table,
     validate_results,
     wrap_caption,
@@ -140,17 +140,9 @@ def _per_seed(values: pd.Series) -> str:
 
 def _paper_figures(cells: pd.DataFrame, aliases: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray]:
     """Each cell's paper figure and the paper's figure minus its sha2020 figure for the same keys (NaN: none)."""
-    paper = paper_results().drop_duplicates(list(KEYS))
-    lookup = {tuple(map(str, key)): value
-              for key, value in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
-
-    def figure(cell: Mapping[str, Any], model: str) -> float:
-        key = dict(cell, model=model, dataset=aliases.get(str(cell["dataset"]), str(cell["dataset"])))
-        return float(lookup.get(tuple(str(key[k]) for k in KEYS), np.nan))
-
     records = cells[list(KEYS)].to_dict("records")
-    figures = np.array([figure(c, str(c["model"])) for c in records], dtype=float)
-    baseline = np.array([figure(c, BASELINE) for c in records], dtype=float)
+    figures = np.array([paper_figure(c, aliases) for c in records], dtype=float)
+    baseline = np.array([paper_figure(dict(c, model=BASELINE), aliases) for c in records], dtype=float)
     differences = np.where([c["model"] == BASELINE for c in records], np.nan, figures - baseline)
     return figures, differences
 

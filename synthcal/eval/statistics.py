@@ -62,7 +62,7 @@ from synthcal.eval.tables import (
     SEGMENTATION_WORDS,
     counted,
     order_values,
-    paper_results,
+    paper_figure,
     text_table,
     validate_results,
     wrap_caption,
@@ -165,13 +165,7 @@ def _paper_difference(row: Mapping[str, str], key: str, a: str, b: str, aliases:
     """
     if key not in KEYS:  # the paper's tables do not vary it (e.g. segmentation): it claims no difference
         return float("nan")
-    paper = paper_results().drop_duplicates(list(KEYS))
-    lookup = {tuple(map(str, k)): v
-              for k, v in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
-    cell = {k: row[k] for k in KEYS if k != key}
-    cell["dataset"] = aliases.get(cell.get("dataset", ""), cell.get("dataset", ""))
-    figures = [lookup.get(tuple(dict(cell, **{key: side})[k] for k in KEYS), np.nan) for side in (a, b)]
-    return float(figures[0] - figures[1])
+    return paper_figure(dict(row, **{key: a}), aliases) - paper_figure(dict(row, **{key: b}), aliases)
 
 
 def _points(value: str) -> float:

@@ -61,9 +61,9 @@ images it counts as valid: a cell whose completeness (mean over seeds) is under
 as displayed, so ties share it) is bold — Markdown ``**…**``, LaTeX ``\\textbf{…}`` —
 when the row has at least two values and the highest is above 0 (a row of zeros,
 every run failed, has no best). ``compare_paper=True`` adds the published figure
-beside each column ("paper"), joined on every key; the paper's IoU is undefined
-beyond its prose, so the comparison is offered for each of its three readings
-(``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8).
+beside each column ("paper"), joined on every key (:func:`paper_figure`); the
+paper's IoU is undefined beyond its prose, so the comparison is offered for each
+of its three readings (``iou``, ``iou_bg``, ``iou_weighted``; SPEC §8).
 
 Below the table
 ---------------
@@ -109,7 +109,7 @@ import pandas as pd
 
 from synthcal.config import DESCRIPTIONS, PIXEL_METRICS, READINGS
 
-__all__ = ["KEYS", "MISSING", "PAIR_KEYS", "FORMATS", "Layout", "LAYOUTS", "paper_results", "validate_results",
+__all__ = ["KEYS", "MISSING", "PAIR_KEYS", "FORMATS", "Layout", "LAYOUTS", "paper_results", "paper_figure", "validate_results",
            "aggregate", "order_values", "table_frame", "counted", "wrap_caption", "latex_escape", "text_table", "legend", "notes",
            "floor_line", "format_table", "failed_runs", "SEGMENTATION_WORDS"]
 
@@ -158,6 +158,38 @@ def paper_results() -> pd.DataFrame:
     """
     with resources.files("synthcal").joinpath("data/paper_iou.csv").open("r", encoding="utf-8") as f:
         return pd.read_csv(f)
+
+
+@lru_cache(maxsize=1)
+def _paper_lookup() -> dict[tuple[str, ...], float]:
+    """The paper's figures by their :data:`KEYS` values as text (a configuration in two tables: the first)."""
+    paper = paper_results().drop_duplicates(list(KEYS))
+    return {tuple(map(str, key)): float(value)
+            for key, value in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
+
+
+def paper_figure(cell: Mapping[str, object], aliases: Mapping[str, str] | None = None) -> float:
+    """The paper's published IoU for one cell, in percent (``synthcal/data/paper_iou.csv``).
+
+    Args:
+        cell: a value for each of :data:`KEYS` (compared as text, "–" for a missing one);
+            other entries are ignored.
+        aliases: our dataset label → the paper's (e.g. ``{"soccer": "worldcup2014"}``);
+            a label without one is the paper's own.
+
+    Returns:
+        The figure, NaN where the paper has none for these keys.
+
+    >>> paper_figure({"dataset": "intersection-1", "model": "sha2020", "training": "step-by-step",
+    ...               "loss": "top-mse", "matching_score": "top-mse"})
+    85.94
+    """
+    missing = [k for k in KEYS if k not in cell]
+    if missing:
+        raise ValueError(f"paper_figure: the cell lacks key(s) {missing}; has {sorted(cell)}")
+    named = {k: str(cell[k]) for k in KEYS}
+    named["dataset"] = (aliases or {}).get(named["dataset"], named["dataset"])
+    return _paper_lookup().get(tuple(named[k] for k in KEYS), float("nan"))
 
 
 def validate_results(results: pd.DataFrame, value: str, keys: tuple[str, ...] = KEYS) -> pd.DataFrame:
@@ -222,9 +254,6 @@ def _with_paper(
     table: pd.DataFrame, varying: list[str], column_key: str, constants: dict, aliases: Mapping[str, str]
 ) -> pd.DataFrame:
     """Add a ``paper`` field to every cell of the grid, ours present or not."""
-    paper = paper_results().drop_duplicates(list(KEYS))
-    lookup = {tuple(map(str, key)): value
-              for key, value in zip(paper[list(KEYS)].itertuples(index=False), paper["iou_percent"], strict=True)}
     column_values = list(dict.fromkeys(table.columns.get_level_values(0)))
     out = {}
     for value in column_values:
@@ -232,8 +261,7 @@ def _with_paper(
         for row in table.index:
             key = dict(constants, **dict(zip(varying, row if isinstance(row, tuple) else (row,), strict=True)))
             key[column_key] = value
-            key["dataset"] = aliases.get(key["dataset"], key["dataset"])
-            figures.append(lookup.get(tuple(key[k] for k in KEYS), np.nan))
+            figures.append(paper_figure(key, aliases))
         out[value] = pd.concat([table[value], pd.Series(figures, index=table.index, name="paper")], axis=1)
     return pd.concat(out, axis=1)
 

@@ -219,9 +219,14 @@ def _store_path(recorded: str, results: Path) -> str:
     return str(beside if (beside / "zarr.json").is_file() else path)
 
 
-def _picks(results: Path, run_id: str, record: Mapping[str, Any]) -> pd.DataFrame | None:
+# (store, seed, mixed dictionary, the test images' pool indices) → their best-pose templates: every picker's
+# runs of one seed share them, and computing them is most of the diagnostics' time.
+_BestPoses = dict[tuple[str, int, bool, bytes], np.ndarray]
+
+
+def _picks(results: Path, run_id: str, record: Mapping[str, Any], best_poses: _BestPoses) -> pd.DataFrame | None:
     """Per test image of a run: its pool index, the template picked and the best-pose one (-1: none), and their
-    pan errors."""
+    pan errors. ``best_poses`` keeps the best-pose templates for the next run of the same store and seed."""
     run = record["run"]
     try:
         per_image = pd.read_csv(results / "runs" / run_id / "metrics.csv", usecols=["pool_index", *_H_COLUMNS])
@@ -229,7 +234,10 @@ def _picks(results: Path, run_id: str, record: Mapping[str, Any]) -> pd.DataFram
         homographies, pans = _dictionary(store, int(run["seed"]), _reads_mixed(run, store))
         pool_index = per_image["pool_index"].to_numpy()
         test_pans = _pans(store)[pool_index]
-        best = best_pose_templates(_homographies(store)[pool_index], homographies, _image_size(store))
+        key = (store, int(run["seed"]), mixed, pool_index.astype(np.int64).tobytes())
+        if key not in best_poses:
+            best_poses[key] = best_pose_templates(_homographies(store)[pool_index], homographies, _image_size(store))
+        best = best_poses[key]
     except (OSError, ValueError, KeyError, IndexError):  # StoreError is a ValueError
         return None
     picked = identify_templates(per_image[_H_COLUMNS].to_numpy().reshape(-1, 3, 3), homographies)
@@ -269,12 +277,13 @@ def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: b
         return pd.DataFrame(columns=columns)
     # a key a run lacks (NaN: e.g. a matching score for a model without one) is a value too, not a crash
     runs = runs.assign(_key=runs[keys].astype(object).fillna("–").astype(str).agg(" / ".join, axis=1))
-    rows = []
+    rows: list[dict[str, Any]] = []
+    best_poses: _BestPoses = {}
     for (key, model), group in runs.groupby(["_key", "model"], sort=False):
         per_seed = []
         for run_id in group["run_id"]:
             record = read_record(results / "runs" / str(run_id) / "run.json")
-            picks = None if record is None else _picks(results, str(run_id), record)
+            picks = None if record is None else _picks(results, str(run_id), record, best_poses)
             if picks is None:
                 continue
             both = picks[(picks["picked"] >= 0) & (picks["best"] >= 0)]

@@ -8,7 +8,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from synthcal.eval.tables import CAPTION_WIDTH, KEYS, aggregate, failed_runs, format_table, paper_results, table_frame
+from synthcal.eval.tables import (
+    CAPTION_WIDTH,
+    KEYS,
+    aggregate,
+    failed_runs,
+    format_table,
+    paper_figure,
+    paper_results,
+    table_frame,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -461,3 +470,16 @@ def test_an_entry_points_name_wins_over_a_dotted_path_to_the_same_class(monkeypa
     assert list(alone["model"]) == ["ordered", "ordered", "identity", "identity"]
     table = "".join(results_tables(rows, "models", "md", False, "iou"))
     assert table.splitlines()[0] == "| dataset | identity | ordered |"  # one column each
+
+
+def test_paper_figure_is_the_csv_row_for_its_keys():
+    shared = pd.read_csv(ROOT / "synthcal" / "data" / "paper_iou.csv")
+    for row in shared.sample(5, random_state=0).to_dict("records"):
+        assert paper_figure(row) == pytest.approx(row["iou_percent"])
+    row = shared.iloc[0].to_dict()
+    # our label for the paper's dataset, through the aliases; a label it lacks has no figure
+    assert paper_figure(dict(row, dataset="ours"), {"ours": row["dataset"]}) == pytest.approx(row["iou_percent"])
+    assert np.isnan(paper_figure(dict(row, dataset="ours")))
+    assert np.isnan(paper_figure(dict(row, loss="no-such-loss")))
+    with pytest.raises(ValueError, match="lacks key"):
+        paper_figure({k: row[k] for k in KEYS if k != "loss"})

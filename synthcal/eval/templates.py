@@ -231,7 +231,8 @@ def _picks(results: Path, run_id: str, record: Mapping[str, Any], best_poses: _B
     try:
         per_image = pd.read_csv(results / "runs" / run_id / "metrics.csv", usecols=["pool_index", *_H_COLUMNS])
         store = _store_path(str(run["store"]), results)
-        homographies, pans = _dictionary(store, int(run["seed"]), _reads_mixed(run, store))
+        mixed = _reads_mixed(run, store)
+        homographies, pans = _dictionary(store, int(run["seed"]), mixed)
         pool_index = per_image["pool_index"].to_numpy()
         test_pans = _pans(store)[pool_index]
         key = (store, int(run["seed"]), mixed, pool_index.astype(np.int64).tobytes())

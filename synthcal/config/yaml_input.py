@@ -17,6 +17,8 @@ naming the file, the key path and the line.
 
 from __future__ import annotations
 
+import copy
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -161,13 +163,10 @@ def read_yaml(path: Path) -> Any:
         ConfigError: unreadable, too large, not UTF-8, not YAML, or over a limit;
             one line naming the file (and the key path and line where there is one).
     """
-    loader = _LimitedLoader(_read_text(path))
+    text = _read_text(path)
     try:
-        node = loader.get_single_node()
-        if node is None:
-            return None
-        _check_expansion(node)
-        return loader.construct_document(node)
+        # A copy: callers merge layers into what they get, and the cached parse must stay as read.
+        return copy.deepcopy(_document(text))
     except _Refused as refused:
         where = f" {refused.where}:" if refused.where else ""
         line = f" (line {refused.line})" if refused.line is not None else ""
@@ -176,5 +175,18 @@ def read_yaml(path: Path) -> Any:
         raise ConfigError(f"{path}: not valid YAML: {_yaml_error(exc)}") from None
     except ValueError as exc:  # a scalar Python refuses to convert, e.g. an integer of 5,000 digits
         raise ConfigError(f"{path}: not valid YAML: {brief(str(exc), 120)}") from None
+
+
+@functools.lru_cache(maxsize=8)
+def _document(text: str) -> Any:
+    """The parsed document of ``text``, cached by text: every load reads the packaged file under the user's,
+    and PyYAML's pure-Python loader takes ~0.1 s over it. Refusals raise (and are not cached)."""
+    loader = _LimitedLoader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_expansion(node)
+        return loader.construct_document(node)
     finally:
         loader.dispose()

@@ -213,8 +213,19 @@ def validate_results(results: pd.DataFrame, value: str, keys: tuple[str, ...] = 
                              else np.nan)
     duplicated = frame.duplicated([*keys, "seed"], keep=False)
     if duplicated.any():
-        raise ValueError(f"several results for the same keys and seed:\n{frame.loc[duplicated, [*keys, 'seed']]}")
+        raise ValueError(_duplicates_message(frame.loc[duplicated], keys))
     return frame
+
+
+def _duplicates_message(duplicates: pd.DataFrame, keys: tuple[str, ...], shown: int = 10) -> str:
+    """Which runs collide, one per line (run id where known), and the usual cause: runs whose settings differ
+    only where the table's keys do not look (a redrawn split, a fixed against a selected learning rate)."""
+    lines = [f"  {row.get('run_id', '?')}: " + " / ".join(str(row[k]) for k in (*keys, "seed"))
+             for _, row in duplicates.head(shown).iterrows()]
+    more = f"\n  … and {len(duplicates) - shown} more" if len(duplicates) > shown else ""
+    return (f"several results for the same keys and seed ({' / '.join((*keys, 'seed'))}):\n" + "\n".join(lines)
+            + more + "\n  runs that differ only in what the table does not show (a redrawn split, a fixed against a "
+            "selected learning rate) belong in separate results folders: move the older runs/<id> folders out")
 
 
 def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:

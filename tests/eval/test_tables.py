@@ -483,3 +483,12 @@ def test_paper_figure_is_the_csv_row_for_its_keys():
     assert np.isnan(paper_figure(dict(row, loss="no-such-loss")))
     with pytest.raises(ValueError, match="lacks key"):
         paper_figure({k: row[k] for k in KEYS if k != "loss"})
+
+
+def test_colliding_runs_are_named_by_run_id_with_the_way_out():
+    twice = pd.concat([MATCHING.iloc[:1], MATCHING.iloc[:1]]).assign(run_id=["old-run", "new-run"])
+    with pytest.raises(ValueError) as raised:
+        format_table(pd.concat([MATCHING.iloc[1:], twice]), "matching")
+    text = str(raised.value)
+    assert "old-run: intersection-1 / proposed" in text and "new-run: intersection-1" in text
+    assert "separate results folders" in text

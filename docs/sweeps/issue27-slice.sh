@@ -9,7 +9,7 @@ export OMP_NUM_THREADS=1
 S=${SYNTHCAL:-synthcal}
 SEL="--select learning_rate=1e-4,3e-4,1e-3 --patience 6"
 COMMON="--data data --results results --profile quick --seeds 0-4 --quiet --yes"
-step() { echo "=== $(date -u +%H:%M:%S) $*"; /usr/bin/time -f "wall %e s" "$@"; echo "=== done $(date -u +%H:%M:%S) rc $?"; }
+step() { echo "=== $(date -u +%H:%M:%S) $*"; /usr/bin/time -f "wall %e s" "$@"; local rc=$?; echo "=== done $(date -u +%H:%M:%S) rc $rc"; }
 # 0. the stores (seconds each; the family/heading/blank ones after intersection-1, then its mixed dictionaries)
 step $S generate intersection-1 intersection-2 intersection-3 intersection-4 intersection-5 soccer worldcup2014 \
     --profile quick --out data --workers 2 --splits --quiet --yes

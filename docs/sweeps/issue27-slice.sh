@@ -4,6 +4,7 @@
 # estimators', models' and training's code hash is unchanged, so later sessions must keep using the same clone.
 # Resumable: bench reuses finished runs; kill it at any time and start it again.
 set -u
+HERE=$(cd "$(dirname "$0")" && pwd)
 cd "${SWEEP:-.}"
 export OMP_NUM_THREADS=1
 S=${SYNTHCAL:-synthcal}
@@ -32,20 +33,35 @@ for lr in 3.0e-4 1.0e-4; do
   step $S bench --config "lr$lr.yaml" --datasets worldcup2014 --estimator sha2020 proposed --data data \
       --results "results-wc14-lr$lr" --profile quick --seeds 0-4 --quiet --yes --workers 2
 done
-# ---- 2026-11-25 stopped here; the next slices, in this order ----
-# 4. UNet in the loop (seed 0's 1e-4 UNet is cached)
-step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
-# 5. MSE beside Top-MSE on intersection-1
+# ---- third session (2026-11-25 evening); NEW: a clone of main at or after the World Cup validation split and
+#      osm rotation_deg (same estimator code hash as the frozen clone, so finished runs are reused) ----
+NEW=${NEW:-$S}
+# 4. MSE beside Top-MSE on intersection-1
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
-# 6. the trained models on the family, blank and paper mixes (retrieved trains each mix's Siamese at 3 rates)
+# 5. World Cup 2014 with a validation split carved from train_val (42 of 209 per seed). Its fixed-rate runs above
+#    were moved out of results/ first (mkdir -p results-wc14-lr1e-3/runs; mv results/runs/worldcup2014_* there):
+#    their table keys are the same as the new runs'. NEW records the 167-frame train set in the run ids.
+step $NEW split data/worldcup2014.zarr --seeds 0-4 --validation 42
+step $NEW bench --datasets worldcup2014 --estimator sha2020 proposed $SEL $COMMON --workers 2
+step $NEW bench --datasets worldcup2014 --estimator template oracle-template $SEL $COMMON --workers 2
+# 6. the real-junction mix: four Helsinki 4-leg junctions turned to intersection-1's axes (seconds to generate)
+SYNTHCAL=$NEW BENCH=$S step bash "$HERE/osm-junctions.sh"
+step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator template oracle-template $SEL $COMMON --workers 2
+# ---- 2026-11-25 (third session) stopped here; the next slices, in this order ----
+# 7. UNet in the loop (started in the third session: UNets cached for part of the seeds and rates)
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
+# 8. the trained models on the family, blank and paper mixes (retrieved trains each mix's Siamese at 3 rates)
 step $S bench --datasets mixed-family-1 mixed-blank-1 mixed-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
-# 7. intersection-2, both losses, sha2020-ccbv on Top-MSE
+# 9. intersection-2, both losses, sha2020-ccbv on Top-MSE
 step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
-# 8. end-to-end and the Dice losses on intersection-1 and -2
+# 10. end-to-end and the Dice losses on intersection-1 and -2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
-# 9. intersections 3-5 and mixed-4/-5
+# 11. intersections 3-5 and mixed-4/-5
 step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
-# 10. the UNet on intersection-2
+# 12. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
+# 13. the trained Siamese (retrieved) on World Cup 2014 and on the real-junction mix
+step $NEW bench --datasets worldcup2014 --estimator retrieved $SEL $COMMON --workers 2
+step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator retrieved $SEL $COMMON --workers 2

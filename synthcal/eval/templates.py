@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
-from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -148,62 +147,86 @@ def pan_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.abs((np.asarray(a, np.float64) - np.asarray(b, np.float64) + 180.0) % 360.0 - 180.0)
 
 
-@cache
-def _pans(store: str) -> np.ndarray:
-    from synthcal.store import array_at, open_store
+class _Stores:
+    """One call's view of the stores its runs name: each opened once, and of its ``homography`` and
+    ``camera/pan_deg`` only the rows the runs ask for, each read once.
 
-    return np.asarray(array_at(open_store(store), "camera/pan_deg")[:], np.float64)
+    Reading whole arrays through Zarr (one inner chunk per sample, each through its codec pipeline) was most
+    of a diagnostics table's time; :func:`~synthcal.store.read_rows` reads just the rows, checksums checked.
+    Kept per call, not per process: a store regenerated between two calls is read afresh.
+    """
 
+    def __init__(self) -> None:
+        self._groups: dict[str, Any] = {}
+        self._rows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}  # values, which rows are read
+        self._dictionaries: dict[tuple[str, int, bool], tuple[np.ndarray, np.ndarray]] = {}
+        # (store, seed, mixed dictionary, the test images' pool indices) → their best-pose templates: every
+        # picker's runs of one seed share them, and computing them is most of the diagnostics' time.
+        self.best_poses: dict[tuple[str, int, bool, bytes], np.ndarray] = {}
 
-@cache
-def _homographies(store: str) -> np.ndarray:
-    from synthcal.store import array_at, open_store
+    def group(self, store: str) -> Any:
+        """The store as :func:`~synthcal.store.open_store` opens it (manifest checked), once per call."""
+        from synthcal.store import open_store
 
-    return np.asarray(array_at(open_store(store), "homography")[:], np.float64)
+        if store not in self._groups:
+            self._groups[store] = open_store(store)
+        return self._groups[store]
 
+    def rows(self, store: str, name: str, index: np.ndarray) -> np.ndarray:
+        """``name``'s rows at ``index`` as float64, (K, ...) in ``index``'s order; rows not read yet are read.
 
-@cache
-def _image_size(store: str) -> tuple[int, int]:
-    from synthcal.store import open_store
+        Raises:
+            IndexError: an index past the array's end.
+        """
+        from synthcal.store import array_at
+        from synthcal.store.shards import read_rows
 
-    size: Any = open_store(store).attrs["image_size"]
-    return int(size[0]), int(size[1])
+        key = (store, name)
+        if key not in self._rows:
+            shape = array_at(self.group(store), name).shape
+            self._rows[key] = np.empty(shape, np.float64), np.zeros(shape[0], bool)
+        values, read = self._rows[key]
+        index = np.asarray(index)  # not cast: a float index (a NaN in metrics.csv) raises IndexError, as before
+        missing = np.unique(index[~read[index]])
+        if len(missing):
+            values[missing] = read_rows(array_at(self.group(store), name), missing)
+            read[missing] = True
+        return values[index]
 
+    def image_size(self, store: str) -> tuple[int, int]:
+        """The store's ``image_size`` attribute."""
+        size: Any = self.group(store).attrs["image_size"]
+        return int(size[0]), int(size[1])
 
-@cache
-def _own_dictionary(store: str) -> bool:
-    from synthcal.store import open_store
-    from synthcal.store.splits import store_spec
+    def reads_mixed(self, run: Mapping[str, Any], store: str) -> bool:
+        """Whether a run searched a mixed dictionary: its ``mixed`` as recorded, else (None: the store's
+        default) the loaders' rule (:func:`synthcal.data.load_split`) — mixed where the store has no own
+        dictionary, as ``worldcup2014``, whose templates come from the soccer store."""
+        from synthcal.store.splits import store_spec
 
-    return store_spec(open_store(store), Path(store)).own_dictionary
+        if str(run["dataset"]).startswith("mixed-"):
+            return True
+        mixed = run.get("mixed")
+        return not store_spec(self.group(store), Path(store)).own_dictionary if mixed is None else bool(mixed)
 
+    def dictionary(self, store: str, seed: int, mixed: bool) -> tuple[np.ndarray, np.ndarray]:
+        """A seed's dictionary: (K, 3, 3) homographies and (K,) pans, each from the store it was drawn from."""
+        from synthcal.store import read_mixed_dictionary, read_split_indices
 
-def _reads_mixed(run: Mapping[str, Any], store: str) -> bool:
-    """Whether a run searched a mixed dictionary: its ``mixed`` as recorded, else (None: the store's default)
-    the loaders' rule (:func:`synthcal.data.load_split`) — mixed where the store has no own dictionary, as
-    ``worldcup2014``, whose templates come from the soccer store."""
-    if str(run["dataset"]).startswith("mixed-"):
-        return True
-    mixed = run.get("mixed")
-    return not _own_dictionary(store) if mixed is None else bool(mixed)
-
-
-@cache
-def _dictionary(store: str, seed: int, mixed: bool) -> tuple[np.ndarray, np.ndarray]:
-    """A seed's dictionary: (K, 3, 3) homographies and (K,) pans, each from the store it was drawn from."""
-    from synthcal.store import read_mixed_dictionary, read_split_indices
-
-    if not mixed:
-        index = read_split_indices(store, "dictionary", seed)
-        return _homographies(store)[index], _pans(store)[index]
-    templates = read_mixed_dictionary(store, seed)
-    homographies = np.empty((len(templates.index), 3, 3))
-    pans = np.empty(len(templates.index))
-    for k, source in enumerate(templates.stores):
-        mask = templates.source == k
-        homographies[mask] = _homographies(str(source))[templates.index[mask]]
-        pans[mask] = _pans(str(source))[templates.index[mask]]
-    return homographies, pans
+        key = (store, seed, mixed)
+        if key not in self._dictionaries:
+            if mixed:
+                templates = read_mixed_dictionary(store, seed)
+                homographies, pans = np.empty((len(templates.index), 3, 3)), np.empty(len(templates.index))
+                for k, source in enumerate(templates.stores):
+                    mask = templates.source == k
+                    homographies[mask] = self.rows(str(source), "homography", templates.index[mask])
+                    pans[mask] = self.rows(str(source), "camera/pan_deg", templates.index[mask])
+            else:
+                index = read_split_indices(store, "dictionary", seed, group=self.group(store))
+                homographies, pans = self.rows(store, "homography", index), self.rows(store, "camera/pan_deg", index)
+            self._dictionaries[key] = homographies, pans
+        return self._dictionaries[key]
 
 
 def _store_path(recorded: str, results: Path) -> str:
@@ -219,26 +242,22 @@ def _store_path(recorded: str, results: Path) -> str:
     return str(beside if (beside / "zarr.json").is_file() else path)
 
 
-# (store, seed, mixed dictionary, the test images' pool indices) → their best-pose templates: every picker's
-# runs of one seed share them, and computing them is most of the diagnostics' time.
-_BestPoses = dict[tuple[str, int, bool, bytes], np.ndarray]
-
-
-def _picks(results: Path, run_id: str, record: Mapping[str, Any], best_poses: _BestPoses) -> pd.DataFrame | None:
+def _picks(results: Path, run_id: str, record: Mapping[str, Any], stores: _Stores) -> pd.DataFrame | None:
     """Per test image of a run: its pool index, the template picked and the best-pose one (-1: none), and their
-    pan errors. ``best_poses`` keeps the best-pose templates for the next run of the same store and seed."""
+    pan errors. ``stores`` keeps what was read and the best-pose templates for the next run of the same store."""
     run = record["run"]
     try:
         per_image = pd.read_csv(results / "runs" / run_id / "metrics.csv", usecols=["pool_index", *_H_COLUMNS])
         store = _store_path(str(run["store"]), results)
-        mixed = _reads_mixed(run, store)
-        homographies, pans = _dictionary(store, int(run["seed"]), mixed)
+        mixed = stores.reads_mixed(run, store)
+        homographies, pans = stores.dictionary(store, int(run["seed"]), mixed)
         pool_index = per_image["pool_index"].to_numpy()
-        test_pans = _pans(store)[pool_index]
+        test_pans = stores.rows(store, "camera/pan_deg", pool_index)
         key = (store, int(run["seed"]), mixed, pool_index.astype(np.int64).tobytes())
-        if key not in best_poses:
-            best_poses[key] = best_pose_templates(_homographies(store)[pool_index], homographies, _image_size(store))
-        best = best_poses[key]
+        if key not in stores.best_poses:
+            stores.best_poses[key] = best_pose_templates(stores.rows(store, "homography", pool_index), homographies,
+                                                         stores.image_size(store))
+        best = stores.best_poses[key]
     except (OSError, ValueError, KeyError, IndexError):  # StoreError is a ValueError
         return None
     picked = identify_templates(per_image[_H_COLUMNS].to_numpy().reshape(-1, 3, 3), homographies)
@@ -279,12 +298,12 @@ def template_diagnostics(frame: pd.DataFrame, results: str | Path, mixed_only: b
     # a key a run lacks (NaN: e.g. a matching score for a model without one) is a value too, not a crash
     runs = runs.assign(_key=runs[keys].astype(object).fillna("–").astype(str).agg(" / ".join, axis=1))
     rows: list[dict[str, Any]] = []
-    best_poses: _BestPoses = {}
+    stores = _Stores()
     for (key, model), group in runs.groupby(["_key", "model"], sort=False):
         per_seed = []
         for run_id in group["run_id"]:
             record = read_record(results / "runs" / str(run_id) / "run.json")
-            picks = None if record is None else _picks(results, str(run_id), record, best_poses)
+            picks = None if record is None else _picks(results, str(run_id), record, stores)
             if picks is None:
                 continue
             both = picks[(picks["picked"] >= 0) & (picks["best"] >= 0)]

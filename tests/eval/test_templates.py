@@ -162,3 +162,33 @@ def test_world_cup_templates_come_from_the_soccer_store(smoke_stores, tmp_path):
     test_pans = zarr.open_group(str(store), mode="r")["camera/pan_deg"][:][np.asarray(test.indices)]
     errors = np.abs(np.rad2deg(np.angle(np.exp(1j * np.deg2rad(template_pans[picks] - test_pans)))))
     assert row["pan_error"] == pytest.approx(np.median(errors))
+
+
+def test_each_store_row_is_read_once_per_call_and_only_where_needed(smoke_stores, tmp_path, monkeypatch):
+    from synthcal.store import shards
+
+    store = smoke_stores.copy(["intersection-1"], tmp_path / "data")["intersection-1"]
+    draw_splits(store, seeds=[0])
+    dictionary, test = load_split(store, "dictionary", 0), load_split(store, "test", 0)
+    picks = np.arange(len(test.indices)) % len(dictionary.indices)
+    results = tmp_path / "results"
+    for model in ("retrieved", "template"):  # two runs of one store and seed: their rows are read once
+        _fake_run(results, store, model, test, dictionary.homographies[picks])
+    reads: list[tuple[str, np.ndarray]] = []
+    read_rows = shards.read_rows
+
+    def spy(array, index, threads=None):
+        reads.append((array.path, np.asarray(index)))
+        return read_rows(array, index, threads)
+
+    monkeypatch.setattr(shards, "read_rows", spy)
+    needed = np.union1d(dictionary.indices, test.indices)
+    pool = zarr.open_group(str(store), mode="r")["homography"].shape[0]
+    assert len(needed) < pool  # rows outside the splits exist, so "only where needed" can fail
+    for _ in range(2):  # a second call reads again: nothing is kept from one call to the next
+        reads.clear()
+        diagnostics = template_diagnostics(collect_results(results), results, mixed_only=False)
+        assert diagnostics["seeds"].tolist() == [1, 1]
+        for name in ("homography", "camera/pan_deg"):
+            rows = np.concatenate([index for path, index in reads if path == name])
+            assert np.sort(rows).tolist() == needed.tolist()

@@ -29,7 +29,7 @@ from synthcal.eval.harness import table_runs
 from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
 from synthcal.eval.statistics import background_floor, format_paired
-from synthcal.eval.tables import PAIR_KEYS, format_table, legend, wrap_caption
+from synthcal.eval.tables import LAYOUTS, PAIR_KEYS, format_table, legend, wrap_caption
 from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
 __all__ = ["ReportError", "results_tables", "reproduction_report", "split_by",
@@ -95,7 +95,12 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
         return
     floors = background_floors(results, frame, metric) if results is not None and metric in FLOOR_READINGS else {}
     frame = table_runs(frame)
-    for title, part in split_by(frame, ("segmentation", "profile")):
+    parts = split_by(frame, ("segmentation", "profile"))
+    if layout in LAYOUTS:  # a part without rows for the asked layout (e.g. UNet runs on no mixed dictionary) is left out
+        wanted = [(title, part) for title, part in parts
+                  if (part["dataset"].str.startswith("mixed-") == LAYOUTS[layout].mixed).any()]
+        parts = wanted or parts[:1]  # none at all: the layout's own error below
+    for title, part in parts:
         mixed = part["dataset"].str.startswith("mixed-")
         layouts = [layout] if layout else [name for name, rows in (("models", ~mixed), ("mixed", mixed)) if rows.any()]
         for name in layouts:

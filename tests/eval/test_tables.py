@@ -492,3 +492,24 @@ def test_colliding_runs_are_named_by_run_id_with_the_way_out():
     text = str(raised.value)
     assert "old-run: intersection-1 / proposed" in text and "new-run: intersection-1" in text
     assert "separate results folders" in text
+
+
+def test_a_layout_leaves_out_the_parts_it_has_no_rows_for():
+    from synthcal.eval.report import ReportError, results_tables
+
+    def rows(dataset, segmentation, values):
+        return pd.DataFrame({"dataset": dataset, "seed": range(len(values)), "model": "template",
+                             "estimator": "template", "iou": values, "run_id": [f"{dataset}-{segmentation}-{s}"
+                                                                               for s in range(len(values))],
+                             "training": None, "loss": None, "matching_score": None,
+                             "segmentation": segmentation, "profile": None})
+
+    # mixed runs only on true maps, own-dictionary runs on both: the UNet part has nothing for `mixed`
+    frame = pd.concat([rows("mixed-1", "ground-truth", [0.2, 0.3]), rows("intersection-1", "ground-truth", [0.5, 0.6]),
+                       rows("intersection-1", "unet", [0.4, 0.5])], ignore_index=True)
+    mixed = "".join(results_tables(frame, "mixed", "md", False, "iou"))
+    assert "| mixed-1 | 25.00 ± 7.07 |" in mixed and "intersection-1" not in mixed
+    models = "".join(results_tables(frame, "models", "md", False, "iou"))
+    assert "### segmentation: unet" in models and "45.00 ± 7.07" in models and "mixed-1" not in models
+    with pytest.raises(ReportError, match="no mixed-dictionary"):
+        list(results_tables(frame[~frame["dataset"].str.startswith("mixed-")], "mixed", "md", False, "iou"))

@@ -47,9 +47,12 @@ step $NEW bench --datasets worldcup2014 --estimator template oracle-template $SE
 # 6. the real-junction mix: four Helsinki 4-leg junctions turned to intersection-1's axes (seconds to generate)
 SYNTHCAL=$NEW BENCH=$S step bash "$HERE/osm-junctions.sh"
 step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator template oracle-template $SEL $COMMON --workers 2
-# ---- 2026-11-25 (third session) stopped here; the next slices, in this order ----
-# 7. UNet in the loop (started in the third session: UNets cached for part of the seeds and rates)
+# 7. UNet in the loop on intersection-1
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
+# 7b. the trained Siamese (retrieved) on World Cup 2014 and on the real-junction mix
+step $NEW bench --datasets worldcup2014 --estimator retrieved $SEL $COMMON --workers 2
+step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator retrieved $SEL $COMMON --workers 2
+# ---- 2026-11-25 (third session) stopped here; the next slices, in this order ----
 # 8. the trained models on the family, blank and paper mixes (retrieved trains each mix's Siamese at 3 rates)
 step $S bench --datasets mixed-family-1 mixed-blank-1 mixed-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
 # 9. intersection-2, both losses, sha2020-ccbv on Top-MSE
@@ -62,6 +65,5 @@ step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 propo
 step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
 # 12. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
-# 13. the trained Siamese (retrieved) on World Cup 2014 and on the real-junction mix
-step $NEW bench --datasets worldcup2014 --estimator retrieved $SEL $COMMON --workers 2
-step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator retrieved $SEL $COMMON --workers 2
+# 13. the trained models on the real-junction mix
+step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator sha2020 proposed $SEL $COMMON --workers 2

@@ -95,12 +95,10 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
         return
     floors = background_floors(results, frame, metric) if results is not None and metric in FLOOR_READINGS else {}
     frame = table_runs(frame)
-    parts = split_by(frame, ("segmentation", "profile"))
-    if layout in LAYOUTS:  # a part without rows for the asked layout (e.g. UNet runs on no mixed dictionary) is left out
-        wanted = [(title, part) for title, part in parts
-                  if (part["dataset"].str.startswith("mixed-") == LAYOUTS[layout].mixed).any()]
-        parts = wanted or parts[:1]  # none at all: the layout's own error below
-    for title, part in parts:
+    if layout in LAYOUTS:  # only the layout's rows decide its parts (UNet runs on no mixed dictionary: no UNet part)
+        rows = frame["dataset"].str.startswith("mixed-") == LAYOUTS[layout].mixed
+        frame = frame[rows] if rows.any() else frame  # none at all: the layout's own error below
+    for title, part in split_by(frame, ("segmentation", "profile")):
         mixed = part["dataset"].str.startswith("mixed-")
         layouts = [layout] if layout else [name for name, rows in (("models", ~mixed), ("mixed", mixed)) if rows.any()]
         for name in layouts:

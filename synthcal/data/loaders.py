@@ -39,10 +39,10 @@ from synthcal.store.splits import (
     SPLIT_NAMES,
     STORED_SPLITS,
     SplitError,
+    dictionary_is_mixed,
     read_mixed_dictionary,
     read_mixed_samples,
     read_split_indices,
-    store_spec,
 )
 
 if TYPE_CHECKING:
@@ -202,7 +202,7 @@ def load_split(
         raise SplitError(f"{store}: mixed=True: only the dictionary can be mixed (split {split!r})")
     group = open_store(store)  # once per call: the manifest check costs a stat per shard file
     if mixed is None:
-        mixed = split == "dictionary" and not store_spec(group, store).own_dictionary
+        mixed = split == "dictionary" and dictionary_is_mixed(group, store)
     scene = scene or read_scene(store, group)
     if mixed:
         templates = read_mixed_dictionary(store, seed)

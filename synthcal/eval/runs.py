@@ -103,6 +103,7 @@ from synthcal.store import array_at, group_at, open_store
 from synthcal.store.splits import (
     VALIDATION,
     SplitError,
+    dictionary_is_mixed,
     drawn_seeds,
     pool_dictionary_indices,
     read_mixed_dictionary,
@@ -341,7 +342,7 @@ def _dataset_dictionary(label: str, store: Path, mixed: bool | None,
     if value not in DICTIONARIES:
         raise SplitError(f"--dictionary: unknown dictionary {value!r} (dataset {label!r}); "
                          f"one of {', '.join(DICTIONARIES)}")
-    if value == "pool" and (mixed or not store_spec(open_store(store), store).own_dictionary):
+    if value == "pool" and (mixed or dictionary_is_mixed(open_store(store), store)):
         raise SplitError(f"{store}: dictionary pool: dataset {label!r} uses a mixed dictionary (templates from "
                          f"other datasets' pools); the pool dictionary is a store's own pool outside the seed's "
                          f"train and test sets: bench {label!r} with --dictionary split, or the target's own "
@@ -406,7 +407,7 @@ def _mixed_dictionary(run: Run) -> bool:
     """Whether the run's dictionary is a mixed one (as :func:`synthcal.data.load_split` decides)."""
     if run.mixed is not None:
         return run.mixed
-    return not store_spec(open_store(run.store), Path(run.store)).own_dictionary
+    return dictionary_is_mixed(open_store(run.store), Path(run.store))
 
 
 def split_sizes(run: Run) -> dict[str, tuple[int, int]]:

@@ -202,12 +202,12 @@ class _Stores:
         """Whether a run searched a mixed dictionary: its ``mixed`` as recorded, else (None: the store's
         default) the loaders' rule (:func:`synthcal.data.load_split`) — mixed where the store has no own
         dictionary, as ``worldcup2014``, whose templates come from the soccer store."""
-        from synthcal.store.splits import store_spec
+        from synthcal.store.splits import dictionary_is_mixed
 
         if str(run["dataset"]).startswith("mixed-"):
             return True
         mixed = run.get("mixed")
-        return not store_spec(self.group(store), Path(store)).own_dictionary if mixed is None else bool(mixed)
+        return dictionary_is_mixed(self.group(store), Path(store)) if mixed is None else bool(mixed)
 
     def dictionary(self, store: str, seed: int, mixed: bool) -> tuple[np.ndarray, np.ndarray]:
         """A seed's dictionary: (K, 3, 3) homographies and (K,) pans, each from the store it was drawn from."""

@@ -35,6 +35,7 @@ __all__ = [
     "SplitError",
     "MixedDictionary",
     "store_spec",
+    "dictionary_is_mixed",
     "source_store_path",
     "open_source",
     "drawn_seeds",
@@ -63,6 +64,15 @@ def store_spec(group: zarr.Group, path: Path) -> DatasetSpec:
     except (KeyError, ValueError) as exc:
         reason = " ".join(str(exc).split())  # pydantic's messages span lines; an error is one
         raise SplitError(f"{path}: attribute 'config' missing or unreadable ({reason})") from None
+
+
+def dictionary_is_mixed(group: zarr.Group, path: Path) -> bool:
+    """Whether a store's ``dictionary`` is, by default, its mixed one: the store draws no dictionary of
+    its own (``dictionary_from``, as ``worldcup2014``, whose templates come from the soccer store).
+
+    The one rule the loaders, the harness and the template diagnostics share.
+    """
+    return not store_spec(group, path).own_dictionary
 
 
 def source_store_path(store: Path, source: str) -> Path:

@@ -23,7 +23,7 @@ from synthcal.generate.worldcup import (
 )
 from synthcal.scenes import soccer
 from synthcal.store import CAMERA_FIELDS, open_store, read_samples
-from synthcal.store.splits import SplitError, read_split_indices
+from synthcal.store.splits import SplitError, dictionary_is_mixed, read_split_indices
 
 ROOT = Path(__file__).resolve().parents[2]
 FRAME_16 = Path(__file__).resolve().parents[3] / "shared/data/wc14/16.jpg"
@@ -182,6 +182,8 @@ def test_dictionary_comes_from_the_soccer_pool(stores):
     store = stores["worldcup2014"]
     dictionary = load_split(store, "dictionary", 2)  # mixed by default: there is no own dictionary
     assert dictionary.sources == ("soccer",) and len(dictionary) == 12
+    assert dictionary_is_mixed(open_store(store), store) and not dictionary_is_mixed(open_store(stores["soccer"]),
+                                                                                      stores["soccer"])
     direct = read_samples(open_store(stores["soccer"]), dictionary.indices)
     np.testing.assert_array_equal(dictionary.homographies, direct["homography"])
     with pytest.raises(SplitError, match=r"splits/seed-2/dictionary: dataset has no own dictionary"):

@@ -52,18 +52,27 @@ step $S bench --datasets intersection-1 --estimator sha2020 proposed --segmentat
 # 7b. the trained Siamese (retrieved) on World Cup 2014 and on the real-junction mix
 step $NEW bench --datasets worldcup2014 --estimator retrieved $SEL $COMMON --workers 2
 step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator retrieved $SEL $COMMON --workers 2
-# ---- 2026-11-25 (third session) stopped here; the next slices, in this order ----
-# 8. the trained models on the family, blank and paper mixes (retrieved trains each mix's Siamese at 3 rates)
-step $S bench --datasets mixed-family-1 mixed-blank-1 mixed-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
-# 9. intersection-2, both losses, sha2020-ccbv on Top-MSE
-step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
+# ---- 2026-11-25 (fourth session, 23:01): the most decisive cells first (2.7 h of the 2 cores left) ----
+# 8. intersection-2, Top-MSE, with the cheap rows (35 min)
+step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse $SEL $COMMON --workers 2
+# 9. the trained models on the same-layout family mix (23 min; sha2020 seeds 0-1 were done by the third session)
+step $S bench --datasets mixed-family-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
+# 10. Top-Dice on intersection-1 (29 min)
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
+# 11. end-to-end, Top-MSE, on intersection-1 (estimated 39 min)
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
+# ---- 2026-11-25 (fourth session) stopped here; the next slices, in this order ----
+# 12. the trained models on the blank control and the paper's mix (retrieved trains each mix's Siamese at 3 rates)
+step $S bench --datasets mixed-blank-1 mixed-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
+# 13. intersection-2: MSE, and sha2020-ccbv on Top-MSE
+step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
-# 10. end-to-end and the Dice losses on intersection-1 and -2
+# 14. the rest of end-to-end and the Dice losses on intersection-1 and -2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
-# 11. intersections 3-5 and mixed-4/-5
+# 15. intersections 3-5 and mixed-4/-5
 step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
-# 12. the UNet on intersection-2
+# 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
-# 13. the trained models on the real-junction mix
+# 17. the trained models on the real-junction mix
 step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator sha2020 proposed $SEL $COMMON --workers 2

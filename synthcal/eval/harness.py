@@ -434,25 +434,34 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
 
 
 def table_runs(frame: pd.DataFrame, keys: Sequence[str] = ("training", "loss", "matching_score")) -> pd.DataFrame:
-    """Runs for the tables: an estimator a key does not apply to is shown in every row of it.
+    """Runs for the tables: an estimator a key does not apply to is shown beside each trained configuration.
 
     ``identity`` has no loss; beside models trained with ``top-mse`` and ``mse`` its
-    row would stand apart with "–". Here each run whose key is missing is repeated
-    for every value that key takes among the other runs of its dataset, so the
-    reference estimators sit beside each trained configuration. Keys missing in
-    every run stay missing.
+    row would stand apart with "–". Here each run whose keys are missing is repeated
+    for every combination of those keys that the runs of its dataset with the most
+    keys take *together* and that agrees with the keys the run has — so the
+    reference estimators sit beside each trained configuration, and no row holds
+    reference runs alone (an end-to-end × MSE row where only step-by-step ran MSE).
+    A run no combination agrees with is kept once, as it is; keys missing in every
+    run stay missing.
     """
-    out = frame.copy()
-    for key in keys:
-        pieces = []
-        for _, group in out.groupby("dataset", sort=False):
-            present = group[key].dropna().unique()
-            missing = group[key].isna()
-            if len(present) == 0 or not missing.any():
-                pieces.append(group)
+    keys = list(keys)
+    pieces = []
+    for _, group in frame.groupby("dataset", sort=False):
+        present = group[keys].notna()
+        counts = present.sum(axis=1)
+        full = counts == counts.max()
+        combos = group.loc[full, keys].drop_duplicates()
+        pieces.append(group[full])
+        for pattern, rows in group[~full].groupby([present.loc[~full, k] for k in keys], sort=False):
+            have = [k for k, has in zip(keys, pattern, strict=True) if has]
+            lacking = [k for k in keys if k not in have]
+            rows = rows.drop(columns=lacking)
+            if not have:
+                pieces.append(rows.merge(combos[lacking], how="cross")[group.columns])
                 continue
-            pieces.append(group[~missing])
-            for value in present:
-                pieces.append(group[missing].assign(**{key: value}))
-        out = pd.concat(pieces, ignore_index=True) if pieces else out
-    return out
+            spread = rows.merge(combos, on=have, how="left", indicator=True)
+            matched = spread["_merge"] == "both"
+            pieces.append(spread.loc[matched, list(group.columns)])
+            pieces.append(spread.loc[~matched, list(group.columns)])  # lacking keys NaN: kept once, as it is
+    return pd.concat(pieces, ignore_index=True) if pieces else frame.copy()

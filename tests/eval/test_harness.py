@@ -226,6 +226,25 @@ def test_reference_estimators_sit_in_every_row():
     assert np.allclose(identity["iou"], 0.1) and len(out) == 4
 
 
+def test_reference_estimators_join_only_configurations_that_ran():
+    """Keys spread together: step-by-step × top-mse and end-to-end × mse ran, so the reference runs sit in
+    those two rows and not in end-to-end × top-mse or step-by-step × mse (rows with references alone); a
+    reference that has a key (``oracle`` matched with ``dice``) joins only the configurations that agree,
+    and one that none agrees with is kept once."""
+    frame = pd.DataFrame({
+        "dataset": "d", "model": ["identity", "oracle", "oracle", "proposed", "proposed"],
+        "training": [None, None, None, "step-by-step", "end-to-end"], "loss": [None, None, None, "top-mse", "mse"],
+        "matching_score": [None, "top-mse", "dice", "top-mse", "top-mse"], "seed": 0, "iou": [0.1, 0.2, 0.3, 0.5, 0.6]})
+    out = table_runs(frame)
+    rows = {(r.model, r.training, r.loss, r.matching_score) for r in out.itertuples()}
+    configurations = {("step-by-step", "top-mse", "top-mse"), ("end-to-end", "mse", "top-mse")}
+    assert {(t, lo, m) for name, t, lo, m in rows if name == "identity"} == configurations
+    assert {(t, lo, m) for name, t, lo, m in rows if name == "oracle" and m == "top-mse"} == configurations
+    dice = out[(out["model"] == "oracle") & (out["matching_score"] == "dice")]
+    assert len(dice) == 1 and dice["training"].isna().all() and np.isclose(dice["iou"].iloc[0], 0.3)
+    assert len(out) == 7
+
+
 def test_runs_are_isolated_and_their_failures_recorded(data, tmp_path, capsys):
     """Each misbehaving plug-in is one failed run with its reason; the mutating one scores as the
     identity it is; the identity after them all completes; ``table`` lists the failures."""

@@ -87,6 +87,7 @@ __all__ = [
     "train_unet",
     "train_siamese",
     "STN_CACHE_BYTES",
+    "example_cache_bytes",
     "StnExamples",
     "train_stn",
     "validation_loss",
@@ -213,10 +214,24 @@ def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tenso
     return one_hot_maps(data.templates[index].to(device), NUM_CLASSES)
 
 
-# Bytes of STN inputs and target views :class:`StnExamples` keeps for a whole fit;
-# above it they are made batch by batch. The quick profile (1,500 items at 128 × 72)
-# needs 0.33 GB, the paper's (4,500 at 256 × 144, UNet) 8 GB.
+# Bytes of STN inputs and target views :class:`StnExamples` keeps for a whole fit in the
+# host's memory; above it they are made batch by batch. The quick profile (1,500 items at
+# 128 × 72) needs 0.33 GB, the paper's (3,000 at 256 × 144, UNet) 5.3 GB.
 STN_CACHE_BYTES = 4 * 2**30
+
+
+def example_cache_bytes(device: torch.device) -> int:
+    """Bytes :class:`StnExamples` may keep on ``device``: :data:`STN_CACHE_BYTES` on the CPU,
+    half the memory a CUDA device has free.
+
+    Made per batch, the paper profile's examples (5.3 GB) rerun the frozen UNet on every
+    STN batch of every epoch: an H200 took 5.1 s per proposed-STN epoch, against 1.6 s
+    with them kept (benchmarks/README.md, "GPU").
+    """
+    if device.type == "cuda":
+        free, _ = torch.cuda.mem_get_info(device)
+        return int(free) // 2
+    return STN_CACHE_BYTES
 
 
 class StnExamples:
@@ -227,7 +242,7 @@ class StnExamples:
     chosen before the first epoch; the target is the scene warped by the item's true
     homography. Making them in every batch of every epoch cost ~¼ of a step (issue 22).
     They are kept on ``device`` while ``len(data) ×`` bytes per item ≤
-    :data:`STN_CACHE_BYTES` (one-hot inputs as uint8, the rest float32), else made
+    :func:`example_cache_bytes` (one-hot inputs as uint8, the rest float32), else made
     per batch; the values are the same either way (items are converted, segmented
     and warped independently of their batch).
 
@@ -246,7 +261,7 @@ class StnExamples:
         h, w = data.semantics.shape[-2:]
         per_item = NUM_CLASSES * h * w * (4 + (2 if unet is None else 8))
         self.cached: tuple[Tensor, Tensor] | None = None
-        if len(data) * per_item <= STN_CACHE_BYTES:
+        if len(data) * per_item <= example_cache_bytes(torch.device(device)):
             inputs, targets = zip(*(self._make(index) for index in torch.arange(len(data)).split(chunk)), strict=True)
             self.cached = torch.cat(inputs), torch.cat(targets)
 

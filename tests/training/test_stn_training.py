@@ -111,3 +111,10 @@ def test_cached_examples_are_the_batches_made_afresh(data):
                                                   one_hot(data.templates[data.match[index]])], 1), rtol=0, atol=0)
     torch.testing.assert_close(targets, warp_semantic(data.scene, data.homographies[index] @ data.scene_frame, SIZE),
                                rtol=0, atol=0)
+
+
+def test_examples_are_kept_in_half_the_free_memory_of_a_gpu(monkeypatch):
+    # No GPU needed: the rule reads only what the device reports free.
+    monkeypatch.setattr(torch.cuda, "mem_get_info", lambda device=None: (10 * 2**30, 80 * 2**30))
+    assert stages.example_cache_bytes(torch.device("cuda")) == 5 * 2**30
+    assert stages.example_cache_bytes(torch.device("cpu")) == stages.STN_CACHE_BYTES

@@ -81,6 +81,7 @@ __all__ = [
     "composite_model",
     "ClassMapLogits",
     "input_maps",
+    "frozen_unet_maps",
     "embed_templates",
     "retrieve_templates",
     "stn_templates",
@@ -209,13 +210,29 @@ def input_maps(data: TrainingData, index: Tensor, unet: nn.Module | None, device
         return unet(_images(data, index, device)).softmax(dim=1)
 
 
+def frozen_unet_maps(data: TrainingData, unet: nn.Module | None, device: torch.device,
+                     chunk: int = 256) -> Tensor | None:
+    """(K, 4, h, w) the frozen UNet's probabilities of every item, on ``device``, made once
+    (:func:`input_maps` in chunks); None without a UNet (one-hot maps cost nothing to
+    remake) or above :func:`example_cache_bytes`.
+
+    A stage that reads the same items every epoch indexes these instead of rerunning the
+    UNet on every batch: equal up to float associativity (the UNet sees chunks, not batches).
+    """
+    h, w = data.semantics.shape[-2:]
+    if unet is None or len(data) * NUM_CLASSES * h * w * 4 > example_cache_bytes(torch.device(device)):
+        return None
+    return torch.cat([input_maps(data, index, unet, device) for index in torch.arange(len(data)).split(chunk)])
+
+
 def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tensor:
     """(B, 4, h, w) one-hot maps of templates ``index``."""
     return one_hot_maps(data.templates[index].to(device), NUM_CLASSES)
 
 
 # Bytes of STN inputs and target views :class:`StnExamples` keeps for a whole fit in the
-# host's memory; above it they are made batch by batch. The quick profile (1,500 items at
+# host's memory (and of the Siamese's frozen-UNet maps, :func:`frozen_unet_maps`); above
+# it they are made batch by batch. The quick profile (1,500 items at
 # 128 × 72) needs 0.33 GB, the paper's (3,000 at 256 × 144, UNet) 5.3 GB.
 STN_CACHE_BYTES = 4 * 2**30
 
@@ -376,12 +393,14 @@ def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | Non
     siamese.to(device).train()
     optimiser = torch.optim.Adam(siamese.parameters(), lr=lr)
     n_templates = len(data.templates)
+    maps = frozen_unet_maps(data, unet, device)
     bar = _epochs(epochs, "siamese", progress)
     for _ in bar:
         losses: list[float] = []
         dictionary = embed_templates(siamese, data, device)
         for index in _batches(len(data), batch_size, generator):
-            anchor = siamese(input_maps(data, index, unet, device))
+            inputs = input_maps(data, index, unet, device) if maps is None else maps[index.to(device)]
+            anchor = siamese(inputs)
             positive = data.match[index]
             candidates = [positive]
             if n_templates > 1:

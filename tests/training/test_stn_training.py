@@ -9,8 +9,16 @@ import torch
 import torch.nn.functional as F
 
 from synthcal.generate.camera import homography
-from synthcal.models import BaselineSTN, ProposedSTN, UNet, compose_homography, top_mse_loss, warp_semantic
-from synthcal.training import TrainingData, reduce_scene, stages, train_stn
+from synthcal.models import (
+    BaselineSTN,
+    ProposedSTN,
+    SiameseNet,
+    UNet,
+    compose_homography,
+    top_mse_loss,
+    warp_semantic,
+)
+from synthcal.training import TrainingData, reduce_scene, stages, train_siamese, train_stn
 
 SIZE = (32, 18)
 SEED, EPOCHS, BATCH, LR = 3, 3, 4, 1e-3  # 10 items: batches of 4, 4 and 2
@@ -118,3 +126,21 @@ def test_examples_are_kept_in_half_the_free_memory_of_a_gpu(monkeypatch):
     monkeypatch.setattr(torch.cuda, "mem_get_info", lambda device=None: (10 * 2**30, 80 * 2**30))
     assert stages.example_cache_bytes(torch.device("cuda")) == 5 * 2**30
     assert stages.example_cache_bytes(torch.device("cpu")) == stages.STN_CACHE_BYTES
+
+
+def test_siamese_on_frozen_unet_maps_kept_matches_the_unet_rerun_per_batch(data, monkeypatch):
+    torch.manual_seed(2)
+    unet = UNet(width=2, depth=1).eval()
+    initial = SiameseNet(4, embedding_dim=8, width=4)
+    fits = {}
+    for kept, cap in (("kept", stages.STN_CACHE_BYTES), ("per-batch", 0)):
+        monkeypatch.setattr(stages, "STN_CACHE_BYTES", cap)
+        assert (stages.frozen_unet_maps(data, unet, torch.device("cpu")) is None) == (cap == 0)
+        log: list[float] = []
+        siamese = train_siamese(copy.deepcopy(initial), data, unet, EPOCHS, BATCH, LR, torch.device("cpu"),
+                                seed=SEED, log=log)
+        fits[kept] = log, siamese.state_dict()
+    np.testing.assert_allclose(fits["kept"][0], fits["per-batch"][0], rtol=1e-5)
+    assert fits["per-batch"][0][-1] != fits["per-batch"][0][0]  # it trained
+    for name, weight in fits["per-batch"][1].items():
+        torch.testing.assert_close(fits["kept"][1][name], weight, rtol=1e-4, atol=1e-6)

@@ -350,7 +350,14 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
     from synthcal.eval.isolation import load_run_split
     from synthcal.eval.segmentation import chosen_learning_rate, confusion_matrix, quality_row, unet_records
     from synthcal.models import UNet, device_from_name
-    from synthcal.training import NUM_CLASSES, StageCache, digest, reduce_class_maps, reduce_images
+    from synthcal.training import (
+        NUM_CLASSES,
+        StageCache,
+        reduce_class_maps,
+        reduce_images,
+        train_cache_key,
+        unet_cache_key,
+    )
 
     if not Path(results).is_dir():
         raise FileNotFoundError(f"{results}: no such results folder")
@@ -367,7 +374,7 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
         s = TrainingSettings(**(run.settings or {}))
         rate = chosen_learning_rate(record) or s.learning_rate
         scene = read_scene(run.store)
-        # The key PaperEstimator._data and _shared_stages give the UNet, from the run's recorded code hash;
+        # The UNet's key as PaperEstimator makes it (train_cache_key, unet_cache_key), from the run's recorded code;
         # the train split's digest is the slow part, and every model and loss of a seed shares it.
         split = (run.store, run.seed, json.dumps(run.limits, sort_keys=True), s.max_train, s.work_size, run.code)
         if split not in train_keys:
@@ -376,10 +383,11 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
             full_size = (semantics.shape[2], semantics.shape[1])
             width, height = s.work_size or full_size
             work_size = (int(width), int(height))
-            train_keys[split] = work_size, digest(run.code.removeprefix("synthcal:"), semantics,
-                                                  np.asarray(train.images)[: len(semantics)], full_size, work_size)
+            train_keys[split] = work_size, train_cache_key(run.code.removeprefix("synthcal:"), semantics,
+                                                           np.asarray(train.images)[: len(semantics)], full_size,
+                                                           work_size)
         work_size, train_key = train_keys[split]
-        key = digest("unet", train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
+        key = unet_cache_key(train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
         if key in rows:  # another model (or loss) of the same seed, on the same UNet
             rows[key]["models"] = ", ".join(sorted({*rows[key]["models"].split(", "), run.model}))
             continue

@@ -152,10 +152,12 @@ from synthcal.training import (
     resolution_matrix,
     retrieve_templates,
     stn_templates,
+    train_cache_key,
     train_end_to_end,
     train_siamese,
     train_stn,
     train_unet,
+    unet_cache_key,
     validation_loss,
 )
 
@@ -315,8 +317,7 @@ class PaperEstimator:
         images = np.asarray(train.images)[: len(semantics)] if self.uses_unet else None
         homographies = np.asarray(dictionary.homographies, np.float64)
         # The code is in every stage's key (they all derive from this one): edited models retrain.
-        keys = {"train": digest(bundled_code_version(), semantics, images if images is not None else 0, full_size,
-                                work_size)}
+        keys = {"train": train_cache_key(bundled_code_version(), semantics, images, full_size, work_size)}
         if isinstance(dictionary.semantics, np.ndarray):  # in memory (a split): as it always was
             full = np.asarray(dictionary.semantics)
             templates = reduce_class_maps(full, work_size)
@@ -482,8 +483,8 @@ class PaperEstimator:
         unet_key = None
         unet = None
         if self.uses_unet:
-            unet_key = digest("unet", keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
-                              s.learning_rate, self.seed)
+            unet_key = unet_cache_key(keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
+                                      s.learning_rate, self.seed)
             unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
                 m, data, s.unet_epochs, log=log, **common))
         siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,

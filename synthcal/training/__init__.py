@@ -8,7 +8,7 @@ Imports of synthcal only :mod:`synthcal.models`, :mod:`synthcal.data`, :mod:`syn
 :mod:`synthcal.config` and :mod:`synthcal.utils` (tests/test_architecture.py).
 """
 
-from synthcal.training.cache import StageCache, digest
+from synthcal.training.cache import StageCache, digest, train_cache_key, unet_cache_key
 from synthcal.training.resolution import (
     NUM_CLASSES,
     reduce_class_map_batches,
@@ -49,6 +49,8 @@ __all__ = [
     "reduce_class_maps",
     "reduce_images",
     "digest",
+    "train_cache_key",
+    "unet_cache_key",
     "StageCache",
     "TrainingData",
     "reduce_scene",

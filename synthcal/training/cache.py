@@ -26,7 +26,7 @@ from torch import Tensor
 
 from synthcal.utils.atomic import atomic_write
 
-__all__ = ["digest", "StageCache"]
+__all__ = ["digest", "train_cache_key", "unet_cache_key", "StageCache"]
 
 
 def digest(*parts: Any) -> str:
@@ -40,6 +40,26 @@ def digest(*parts: Any) -> str:
         else:
             h.update(json.dumps(part, sort_keys=True, default=str).encode())
     return h.hexdigest()
+
+
+def train_cache_key(code: str, semantics: np.ndarray, images: np.ndarray | None, full_size: tuple[int, int],
+                    work_size: tuple[int, int]) -> str:
+    """Key of a train split as the bundled models read it; every stage's key derives from it.
+
+    Args:
+        code: the bundled models' code version (:func:`synthcal.estimators.bundled_code_version`,
+            or the one a run recorded): edited models retrain.
+        semantics: (K, H, W) the class maps trained on (after ``max_train``).
+        images: (K, H, W, 3) their RGB images, None when no UNet reads them.
+        full_size, work_size: ``(w, h)`` of the store and of the networks.
+    """
+    return digest(code, semantics, images if images is not None else 0, full_size, work_size)
+
+
+def unet_cache_key(train_key: str, width: int, depth: int, epochs: int, batch_size: int, learning_rate: float,
+             seed: int) -> str:
+    """Key of the UNet trained on the split ``train_key`` with these settings (:class:`StageCache` ``unet``)."""
+    return digest("unet", train_key, width, depth, epochs, batch_size, learning_rate, seed)
 
 
 class StageCache:

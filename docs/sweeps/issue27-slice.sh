@@ -61,17 +61,21 @@ step $S bench --datasets mixed-family-1 --estimator sha2020 proposed retrieved $
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 # 11. end-to-end, Top-MSE, on intersection-1 (estimated 39 min)
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
-# ---- 2026-11-25 (fourth session) stopped here; the next slices, in this order ----
+# ---- 2026-11-25 (fourth session) stopped here ----
+# ---- 2026-11-26 (fifth session): the paper's cells on intersections 3-5 before sha2020-ccbv on intersection-2 ----
 # 12. the trained models on the blank control and the paper's mix (retrieved trains each mix's Siamese at 3 rates)
 step $S bench --datasets mixed-blank-1 mixed-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
-# 13. intersection-2: MSE, and sha2020-ccbv on Top-MSE
+# 13a. intersection-2 with MSE
 step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss mse $SEL $COMMON --workers 2
+# 15a. intersections 3-5, Top-MSE
+step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator sha2020 proposed retrieved oracle-template template $SEL $COMMON --workers 2
+# 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)
 step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
+# 15b. intersections 3-5 with MSE, mixed-4/-5 on both losses
+step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
 # 14. the rest of end-to-end and the Dice losses on intersection-1 and -2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
-# 15. intersections 3-5 and mixed-4/-5
-step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
 # 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
 # 17. the trained models on the real-junction mix

@@ -67,6 +67,13 @@ step $S bench --datasets intersection-1 --estimator sha2020 proposed --training 
 step $S bench --datasets mixed-blank-1 mixed-1 --estimator sha2020 proposed retrieved $SEL $COMMON --workers 2
 # 13a. intersection-2 with MSE
 step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved oracle-template template --loss mse $SEL $COMMON --workers 2
+# 13c. (run) each model's rate grid widened past its edge on intersection-2, Top-MSE, in results-grid (cache shared),
+#      the two benches pinned to a core each; docs/sweeps/union_grid.py reads both folders
+# mkdir -p results-grid && ln -sfn ../results/cache results-grid/cache
+# G="--datasets intersection-2 --patience 6 --data data --results results-grid --profile quick --seeds 0-4 --quiet --yes --workers 1"
+# taskset -c 0 $S bench $G --estimator proposed --select learning_rate=3e-5,1e-4,3e-4 &
+# taskset -c 1 $S bench $G --estimator sha2020 --select learning_rate=3e-4,1e-3,3e-3; wait
+# ---- 2026-11-26 (fifth session) stopped here (intersection-3 under way; finished runs are reused); the next slices, in this order ----
 # 15a. intersections 3-5, Top-MSE
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator sha2020 proposed retrieved oracle-template template $SEL $COMMON --workers 2
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)

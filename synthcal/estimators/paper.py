@@ -159,6 +159,7 @@ from synthcal.training import (
     train_unet,
     unet_cache_key,
     validation_loss,
+    with_unet_maps,
 )
 
 __all__ = ["STN_CLASSES", "BATCH_NORM_DEFAULTS", "model_label", "PaperEstimator", "ProposedEstimator",
@@ -275,6 +276,8 @@ class PaperEstimator:
         self.selection: dict[str, Any] | None = None
         self._fitted: dict[str, Any] | None = None
         self._held_out: TrainingData | None = None
+        # The current learning rate's validation examples (:meth:`_validation_examples`).
+        self._validation: tuple[StnExamples, Tensor] | None = None
 
     @classmethod
     def variant_label(cls, settings: TrainingSettings | Mapping[str, Any] | None) -> str:
@@ -406,7 +409,7 @@ class PaperEstimator:
                 if _best(scores) == len(scores) - 1:
                     kept = (self._fitted, self.history)  # only the best fit so far is held
         finally:
-            self.settings = s
+            self.settings, self._validation = s, None  # the kept fit may be an earlier rate's
         self._fitted, self.history = kept
         if s.select is not None:
             self.selection = {"split": "validation", "score": f"L_warp ({self.loss}) of the estimates",
@@ -426,15 +429,21 @@ class PaperEstimator:
         return dataclasses.replace(
             data, images=images, semantics=reduce_class_maps(semantics, data.work_size),
             homographies=A @ torch.from_numpy(np.asarray(validation.homographies, np.float64)),
-            match=torch.zeros(len(semantics), dtype=torch.long))
+            match=torch.zeros(len(semantics), dtype=torch.long), unet_maps=None)
 
     def _validation_examples(self, siamese: SiameseNet, unet: nn.Module | None,
                              embedding: Tensor) -> tuple[StnExamples, Tensor]:
-        """Validation items with the templates the Siamese retrieves for them, and those templates' ``A H_k``."""
-        held_out = cast(TrainingData, self._held_out)
-        retrieved = retrieve_templates(siamese, held_out, unet, self.device, dictionary=embedding)
-        return (StnExamples(held_out, retrieved, unet, self.device),
-                held_out.template_homographies[retrieved].to(self.device))
+        """Validation items with the templates the Siamese retrieves for them, and those templates' ``A H_k``.
+
+        Made once per learning rate (the STN's per-epoch scores and the rate's final score
+        read the same ones: the UNet and Siamese are frozen by then).
+        """
+        if self._validation is None:
+            held_out = with_unet_maps(cast(TrainingData, self._held_out), unet, self.device)
+            retrieved = retrieve_templates(siamese, held_out, unet, self.device, dictionary=embedding)
+            self._validation = (StnExamples(held_out, retrieved, unet, self.device),
+                                held_out.template_homographies[retrieved].to(self.device))
+        return self._validation
 
     def _validation_score(self) -> float:
         """The fitted model's validation ``L_warp`` of its estimates (module docstring)."""
@@ -446,6 +455,7 @@ class PaperEstimator:
     def _fit_at(self, train: SplitLike, dictionary: SplitLike, data: TrainingData, keys: dict[str, str]) -> None:
         """One fit under the current settings (one learning rate); sets :attr:`_fitted`."""
         s, device = self.settings, self.device
+        self._validation = None
         common = _Common(batch_size=s.batch_size, lr=s.learning_rate, device=device, seed=self.seed,
                          progress=self.progress)
         unet: nn.Module | None
@@ -459,7 +469,7 @@ class PaperEstimator:
                              **common)
             self.trained_stages.append("end-to-end")
         else:
-            unet, siamese, embedding = self._shared_stages(data, keys, common)
+            data, unet, siamese, embedding = self._shared_stages(data, keys, common)
             stn = self._refiner(data, unet, siamese, embedding, common)
         self._fitted = {
             "unet": unet if self.uses_unet else None,
@@ -474,11 +484,12 @@ class PaperEstimator:
         }
 
     def _shared_stages(self, data: TrainingData, keys: dict[str, str],
-                       common: _Common) -> tuple[nn.Module | None, SiameseNet, Tensor]:
+                       common: _Common) -> tuple[TrainingData, nn.Module | None, SiameseNet, Tensor]:
         """Step-by-step: the UNet (None under ``segmentation: ground-truth``) and the Siamese, each
         loaded from the cache or trained into it, and the dictionary embedded by the Siamese. Their
         keys hold neither the model nor its STN settings: every step-by-step run on the same data
-        and stage settings shares them."""
+        and stage settings shares them. ``data`` comes back with the UNet's maps kept
+        (:func:`with_unet_maps`) for the stages after it."""
         s = self.settings
         unet_key = None
         unet = None
@@ -487,12 +498,13 @@ class PaperEstimator:
                                       s.learning_rate, self.seed)
             unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
                 m, data, s.unet_epochs, log=log, **common))
+            data = with_unet_maps(data, unet, self.device)
         siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,
                              s.siamese_width, s.embedding_dim, s.siamese_epochs, s.batch_size, s.learning_rate,
                              self.seed)
         siamese = self._stage("siamese", siamese_key, self._siamese(), lambda m, log: train_siamese(
             m, data, unet, s.siamese_epochs, log=log, **common))
-        return unet, siamese, self._embedding(siamese_key, keys["dictionary"], siamese, data)
+        return data, unet, siamese, self._embedding(siamese_key, keys["dictionary"], siamese, data)
 
     def _refiner(self, data: TrainingData, unet: nn.Module | None, siamese: SiameseNet, embedding: Tensor,
                  common: _Common) -> nn.Module | None:

@@ -37,6 +37,7 @@ from synthcal.training.stages import (
     train_stn,
     train_unet,
     validation_loss,
+    with_unet_maps,
 )
 
 __all__ = [
@@ -57,6 +58,7 @@ __all__ = [
     "composite_model",
     "ClassMapLogits",
     "input_maps",
+    "with_unet_maps",
     "embed_templates",
     "retrieve_templates",
     "stn_templates",

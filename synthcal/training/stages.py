@@ -48,7 +48,7 @@ Caching: :mod:`synthcal.training.cache`.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import cast
 
 import numpy as np
@@ -81,14 +81,14 @@ __all__ = [
     "composite_model",
     "ClassMapLogits",
     "input_maps",
-    "frozen_unet_maps",
+    "with_unet_maps",
     "embed_templates",
     "retrieve_templates",
     "stn_templates",
     "train_unet",
     "train_siamese",
-    "STN_CACHE_BYTES",
-    "example_cache_bytes",
+    "MAP_CACHE_BYTES",
+    "map_cache_bytes",
     "StnExamples",
     "train_stn",
     "validation_loss",
@@ -125,6 +125,9 @@ class TrainingData:
         scene_frame: (3, 3) float64 ``D⁻¹``: reduced-scene pixels → scene pixels; the
             loss warps ``scene`` by ``H @ scene_frame``.
         work_size: ``(w, h)``.
+        unet_maps: (K, 4, h, w) float32 the frozen UNet's probabilities of every item, on
+            the training device, made once for a fit (:func:`with_unet_maps`); None: made
+            batch by batch. They belong to the UNet that made them: pass that one beside.
     """
 
     images: Tensor | None
@@ -136,6 +139,7 @@ class TrainingData:
     scene: Tensor
     scene_frame: Tensor
     work_size: tuple[int, int]
+    unet_maps: Tensor | None = None
 
     def __len__(self) -> int:
         return len(self.semantics)
@@ -202,27 +206,33 @@ def _images(data: TrainingData, index: Tensor, device: torch.device) -> Tensor:
 def input_maps(data: TrainingData, index: Tensor, unet: nn.Module | None, device: torch.device) -> Tensor:
     """(B, 4, h, w) maps the Siamese and STN read: UNet probabilities or true one-hot maps.
 
-    The UNet, if given, is frozen here (no gradient, eval mode by the caller).
+    The UNet, if given, is frozen here (no gradient, eval mode by the caller); its maps
+    are read from ``data.unet_maps`` when they were kept (:func:`with_unet_maps`).
     """
     if unet is None:
         return one_hot_maps(data.semantics[index].to(device), NUM_CLASSES)
+    if data.unet_maps is not None:
+        return data.unet_maps[index.to(data.unet_maps.device)].to(device)
     with torch.no_grad():
         return unet(_images(data, index, device)).softmax(dim=1)
 
 
-def frozen_unet_maps(data: TrainingData, unet: nn.Module | None, device: torch.device,
-                     chunk: int = 256) -> Tensor | None:
-    """(K, 4, h, w) the frozen UNet's probabilities of every item, on ``device``, made once
-    (:func:`input_maps` in chunks); None without a UNet (one-hot maps cost nothing to
-    remake) or above :func:`example_cache_bytes`.
+def with_unet_maps(data: TrainingData, unet: nn.Module | None, device: torch.device,
+                   chunk: int = 256) -> TrainingData:
+    """``data`` with the frozen ``unet``'s probabilities of every item kept on ``device``.
 
-    A stage that reads the same items every epoch indexes these instead of rerunning the
-    UNet on every batch: equal up to float associativity (the UNet sees chunks, not batches).
+    Every step-by-step stage after the UNet — the Siamese (every epoch), the
+    retrieval of the STN's templates and the STN's inputs — reads the same maps of
+    the same items: made once here, each reads them (:func:`input_maps`) instead of
+    rerunning the UNet. Equal to the per-batch maps up to float associativity (the
+    UNet sees chunks, not batches). Without a UNet (one-hot maps cost nothing to
+    remake), or above :func:`map_cache_bytes`, ``data`` comes back without them.
     """
-    h, w = data.semantics.shape[-2:]
-    if unet is None or len(data) * NUM_CLASSES * h * w * 4 > example_cache_bytes(torch.device(device)):
-        return None
-    return torch.cat([input_maps(data, index, unet, device) for index in torch.arange(len(data)).split(chunk)])
+    data = replace(data, unet_maps=None)
+    if unet is None or not _fits(data, 4, device):
+        return data
+    maps = torch.cat([input_maps(data, index, unet, device) for index in torch.arange(len(data)).split(chunk)])
+    return replace(data, unet_maps=maps)
 
 
 def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tensor:
@@ -230,15 +240,16 @@ def _templates(data: TrainingData, index: Tensor, device: torch.device) -> Tenso
     return one_hot_maps(data.templates[index].to(device), NUM_CLASSES)
 
 
-# Bytes of STN inputs and target views :class:`StnExamples` keeps for a whole fit in the
-# host's memory (and of the Siamese's frozen-UNet maps, :func:`frozen_unet_maps`); above
-# it they are made batch by batch. The quick profile (1,500 items at
-# 128 × 72) needs 0.33 GB, the paper's (3,000 at 256 × 144, UNet) 5.3 GB.
-STN_CACHE_BYTES = 4 * 2**30
+# Bytes of maps a fit may keep in the host's memory, each kind on its own: the frozen
+# UNet's maps (:func:`with_unet_maps`), the STN's inputs and target views
+# (:class:`StnExamples`); above it they are made batch by batch. The quick profile's
+# STN examples (1,500 items at 128 × 72) need 0.33 GB, the paper's (3,000 at 256 × 144,
+# UNet) 5.3 GB.
+MAP_CACHE_BYTES = 4 * 2**30
 
 
-def example_cache_bytes(device: torch.device) -> int:
-    """Bytes :class:`StnExamples` may keep on ``device``: :data:`STN_CACHE_BYTES` on the CPU,
+def map_cache_bytes(device: torch.device) -> int:
+    """Bytes of maps a fit may keep on ``device``: :data:`MAP_CACHE_BYTES` on the CPU,
     half the memory a CUDA device has free.
 
     Made per batch, the paper profile's examples (5.3 GB) rerun the frozen UNet on every
@@ -248,7 +259,13 @@ def example_cache_bytes(device: torch.device) -> int:
     if device.type == "cuda":
         free, _ = torch.cuda.mem_get_info(device)
         return int(free) // 2
-    return STN_CACHE_BYTES
+    return MAP_CACHE_BYTES
+
+
+def _fits(data: TrainingData, bytes_per_value: int, device: torch.device) -> bool:
+    """Whether ``bytes_per_value`` bytes per (item, class, pixel) of ``data`` fit :func:`map_cache_bytes`."""
+    h, w = data.semantics.shape[-2:]
+    return len(data) * NUM_CLASSES * h * w * bytes_per_value <= map_cache_bytes(torch.device(device))
 
 
 class StnExamples:
@@ -259,7 +276,7 @@ class StnExamples:
     chosen before the first epoch; the target is the scene warped by the item's true
     homography. Making them in every batch of every epoch cost ~¼ of a step (issue 22).
     They are kept on ``device`` while ``len(data) ×`` bytes per item ≤
-    :func:`example_cache_bytes` (one-hot inputs as uint8, the rest float32), else made
+    :func:`map_cache_bytes` (one-hot inputs as uint8, the rest float32), else made
     per batch; the values are the same either way (items are converted, segmented
     and warped independently of their batch).
 
@@ -275,10 +292,9 @@ class StnExamples:
                  chunk: int = 256) -> None:
         self.data, self.templates, self.unet, self.device = data, templates, unet, device
         self.scene, self.frame = data.scene.to(device), data.scene_frame.to(device)
-        h, w = data.semantics.shape[-2:]
-        per_item = NUM_CLASSES * h * w * (4 + (2 if unet is None else 8))
         self.cached: tuple[Tensor, Tensor] | None = None
-        if len(data) * per_item <= example_cache_bytes(torch.device(device)):
+        # The target view in float32, the input map and template map as uint8 (one-hot) or float32.
+        if _fits(data, 4 + (2 if unet is None else 8), device):
             inputs, targets = zip(*(self._make(index) for index in torch.arange(len(data)).split(chunk)), strict=True)
             self.cached = torch.cat(inputs), torch.cat(targets)
 
@@ -393,14 +409,14 @@ def train_siamese(siamese: SiameseNet, data: TrainingData, unet: nn.Module | Non
     siamese.to(device).train()
     optimiser = torch.optim.Adam(siamese.parameters(), lr=lr)
     n_templates = len(data.templates)
-    maps = frozen_unet_maps(data, unet, device)
+    if data.unet_maps is None:
+        data = with_unet_maps(data, unet, device)
     bar = _epochs(epochs, "siamese", progress)
     for _ in bar:
         losses: list[float] = []
         dictionary = embed_templates(siamese, data, device)
         for index in _batches(len(data), batch_size, generator):
-            inputs = input_maps(data, index, unet, device) if maps is None else maps[index.to(device)]
-            anchor = siamese(inputs)
+            anchor = siamese(input_maps(data, index, unet, device))
             positive = data.match[index]
             candidates = [positive]
             if n_templates > 1:

@@ -13,6 +13,7 @@ from synthcal.estimators import load_estimator
 from synthcal.eval.harness import collect_results, execute_run, expand_runs, read_record, run_folder, table_runs
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
+from synthcal.models import UNet
 from synthcal.store import read_split_indices, write_manifest
 from synthcal.training import best_epoch
 
@@ -63,6 +64,26 @@ def test_the_best_rate_on_validation_is_kept_and_each_siamese_is_trained_once(sp
     assert alone._validation_score() == pytest.approx(min(scores), rel=1e-6)
     test = splits["test"].semantics
     np.testing.assert_allclose(alone.predict_semantic(test), proposed.predict_semantic(test), rtol=1e-6)
+
+
+def test_the_frozen_unet_segments_each_item_once_per_rate(splits, settings, monkeypatch):
+    # The Siamese's epochs, the retrieval of the STN's templates, the STN's inputs and the
+    # validation scores all read the frozen UNet's maps: made once per rate, not per reader.
+    frozen: list[int] = []
+    forward = UNet.forward
+
+    def counted(self, x):
+        if not self.training:
+            frozen.append(len(x))
+        return forward(self, x)
+
+    monkeypatch.setattr(UNet, "forward", counted)
+    grid = {**settings, "select": {"learning_rate": RATES}, "patience": 2}
+    estimator = load_estimator("proposed", settings=grid, device="cpu", segmentation="unet")
+    estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert estimator.trained_stages == ["unet", "siamese", "stn"] * len(RATES)
+    train = min(len(splits["train"]), grid.get("max_train") or len(splits["train"]))
+    assert sum(frozen) == len(RATES) * (train + len(splits["validation"]))
 
 
 def test_patience_keeps_the_best_validation_epoch(splits, settings):

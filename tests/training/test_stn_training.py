@@ -83,10 +83,10 @@ def trained(stn: torch.nn.Module, data: TrainingData, templates: torch.Tensor, u
     return log, stn.state_dict()
 
 
-@pytest.mark.parametrize("cache_bytes", [stages.STN_CACHE_BYTES, 0], ids=["once-per-fit", "per-batch"])
+@pytest.mark.parametrize("cache_bytes", [stages.MAP_CACHE_BYTES, 0], ids=["once-per-fit", "per-batch"])
 @pytest.mark.parametrize("network", [BaselineSTN, ProposedSTN])
 def test_stn_training_equals_the_plain_loop_on_true_maps(data, network, cache_bytes, monkeypatch):
-    monkeypatch.setattr(stages, "STN_CACHE_BYTES", cache_bytes)
+    monkeypatch.setattr(stages, "MAP_CACHE_BYTES", cache_bytes)
     assert (stages.StnExamples(data, data.match, None, torch.device("cpu")).cached is None) == (cache_bytes == 0)
     torch.manual_seed(0)
     initial = network(8, image_size=SIZE, width=4)
@@ -124,8 +124,8 @@ def test_cached_examples_are_the_batches_made_afresh(data):
 def test_examples_are_kept_in_half_the_free_memory_of_a_gpu(monkeypatch):
     # No GPU needed: the rule reads only what the device reports free.
     monkeypatch.setattr(torch.cuda, "mem_get_info", lambda device=None: (10 * 2**30, 80 * 2**30))
-    assert stages.example_cache_bytes(torch.device("cuda")) == 5 * 2**30
-    assert stages.example_cache_bytes(torch.device("cpu")) == stages.STN_CACHE_BYTES
+    assert stages.map_cache_bytes(torch.device("cuda")) == 5 * 2**30
+    assert stages.map_cache_bytes(torch.device("cpu")) == stages.MAP_CACHE_BYTES
 
 
 def test_siamese_on_frozen_unet_maps_kept_matches_the_unet_rerun_per_batch(data, monkeypatch):
@@ -133,9 +133,9 @@ def test_siamese_on_frozen_unet_maps_kept_matches_the_unet_rerun_per_batch(data,
     unet = UNet(width=2, depth=1).eval()
     initial = SiameseNet(4, embedding_dim=8, width=4)
     fits = {}
-    for kept, cap in (("kept", stages.STN_CACHE_BYTES), ("per-batch", 0)):
-        monkeypatch.setattr(stages, "STN_CACHE_BYTES", cap)
-        assert (stages.frozen_unet_maps(data, unet, torch.device("cpu")) is None) == (cap == 0)
+    for kept, cap in (("kept", stages.MAP_CACHE_BYTES), ("per-batch", 0)):
+        monkeypatch.setattr(stages, "MAP_CACHE_BYTES", cap)
+        assert (stages.with_unet_maps(data, unet, torch.device("cpu")).unet_maps is None) == (cap == 0)
         log: list[float] = []
         siamese = train_siamese(copy.deepcopy(initial), data, unet, EPOCHS, BATCH, LR, torch.device("cpu"),
                                 seed=SEED, log=log)

@@ -16,7 +16,7 @@ estimator's table label (``model``). Per cell :func:`report_frame` gives:
   only for readings of the paper's IoU);
 * what validation chose per seed (``learning_rates``, ``stn_epochs``: the runs'
   ``selection.chosen``, in seed order) and the median seconds per run;
-* ``verdict`` (:func:`verdict`).
+* ``verdict`` (:func:`synthcal.eval.statistics.verdict`, re-exported here).
 
 Verdict rules
 -------------
@@ -54,7 +54,7 @@ import numpy as np
 import pandas as pd
 
 from synthcal.config import PIXEL_METRICS, READINGS
-from synthcal.eval.statistics import paired_frame
+from synthcal.eval.statistics import UNDECIDED, VERDICTS, paired_frame, verdict
 from synthcal.eval.tables import (
     FORMATS,
     KEYS,
@@ -71,35 +71,9 @@ __all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "UNDECIDED", "verdict", "run_cho
 
 BASELINE = "sha2020"
 CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
-VERDICTS = ("consistent with the paper", "not reproduced", "opposite")
-#: Rule 2 met by an interval that also holds 0: consistent with the claim and with no effect alike.
-UNDECIDED = f"{VERDICTS[0]} (and with no difference)"
 # The CSV's columns after the keys (the Markdown shows them in words).
 NUMBERS = ("n_seeds", "mean", "std", "difference", "t_low", "t_high", "p", "n_pairs", "wins", "paper",
            "paper_difference", "learning_rates", "stn_epochs", "seconds", "verdict")
-
-
-def verdict(low: float, high: float, paper_difference: float) -> str:
-    """The verdict on the paper's difference from our 95 % interval (module docstring, *Verdict rules*).
-
-    Args:
-        low, high: the paired t interval of ours − sha2020, points (NaN: undefined).
-        paper_difference: the paper's figure minus its Sha et al. figure, points (NaN: no claim).
-
-    Returns:
-        One of :data:`VERDICTS`, :data:`UNDECIDED`, or "–" where there is no verdict.
-
-    >>> verdict(0.5, 3.0, 2.1), verdict(-1.0, 0.8, 2.1), verdict(-4.0, -0.2, 2.1), verdict(-1.0, 5.0, 2.1)
-    ('consistent with the paper', 'not reproduced', 'opposite', 'consistent with the paper (and with no difference)')
-    """
-    if any(pd.isna(v) for v in (low, high, paper_difference)):
-        return MISSING
-    d = paper_difference
-    if low <= d <= high or (d > 0 and low > 0) or (d < 0 and high < 0):
-        return UNDECIDED if low <= 0 <= high else VERDICTS[0]
-    if (d > 0 and high < 0) or (d < 0 and low > 0):
-        return VERDICTS[2]
-    return VERDICTS[1]
 
 
 def _record(results: Path, run_id: str) -> dict[str, Any]:

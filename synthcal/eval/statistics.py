@@ -7,8 +7,9 @@ Two runs that agree on every key of :data:`synthcal.eval.tables.PAIR_KEYS` but o
 same train, test and dictionary sets, the same settings. Per cell (dataset and
 settings) :func:`paired_frame` gives the mean of the per-seed differences A − B
 in points, their standard deviation (ddof = 1), the seeds where A > B, the
-paper's A − B for the same cell, and two 95 % confidence intervals of the mean
-difference:
+paper's A − B for the same cell with a verdict on it (:func:`verdict`: the rules
+of the reproduction report, :mod:`synthcal.eval.reproduction`), and two 95 %
+confidence intervals of the mean difference:
 
 * **paired t over seeds** (:func:`t_interval`): the seeds are independent draws
   of the split, so ``mean ± t_{0.975, n−1} · sd / √n``, and the two-sided p-value
@@ -69,11 +70,14 @@ from synthcal.eval.tables import (
 )
 
 __all__ = ["CONFIDENCE", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "t_interval", "bootstrap_interval",
-           "background_floor", "paired_frame", "format_paired"]
+           "background_floor", "VERDICTS", "UNDECIDED", "verdict", "paired_frame", "format_paired"]
 
 CONFIDENCE = 0.95
 BOOTSTRAP_RESAMPLES = 2000
 BOOTSTRAP_SEED = 0
+VERDICTS = ("consistent with the paper", "not reproduced", "opposite")
+#: Rule 2 met by an interval that also holds 0: consistent with the claim and with no effect alike.
+UNDECIDED = f"{VERDICTS[0]} (and with no difference)"
 
 # A run id → its per-image values of the compared metric (fractions, indexed by pool index;
 # NaN for images not scored), or None where the run has none recorded.
@@ -189,6 +193,31 @@ def _image_differences(pairs: pd.DataFrame, per_image: PerImage | None) -> list[
     return out
 
 
+def verdict(low: float, high: float, paper_difference: float) -> str:
+    """The verdict on the paper's difference A − B from our 95 % interval of A − B
+    (:mod:`synthcal.eval.reproduction`, *Verdict rules*; ``--paired`` prints it too).
+
+    Args:
+        low, high: the paired t interval of our A − B (in the report, a model − sha2020), points
+            (NaN: undefined).
+        paper_difference: the paper's A − B for the same cell, points (NaN: no claim).
+
+    Returns:
+        One of :data:`VERDICTS`, :data:`UNDECIDED`, or "–" where there is no verdict.
+
+    >>> verdict(0.5, 3.0, 2.1), verdict(-1.0, 0.8, 2.1), verdict(-4.0, -0.2, 2.1), verdict(-1.0, 5.0, 2.1)
+    ('consistent with the paper', 'not reproduced', 'opposite', 'consistent with the paper (and with no difference)')
+    """
+    if any(pd.isna(v) for v in (low, high, paper_difference)):
+        return MISSING
+    d = paper_difference
+    if low <= d <= high or (d > 0 and low > 0) or (d < 0 and high < 0):
+        return UNDECIDED if low <= 0 <= high else VERDICTS[0]
+    if (d > 0 and high < 0) or (d < 0 and low > 0):
+        return VERDICTS[2]
+    return VERDICTS[1]
+
+
 def paired_frame(
     results: pd.DataFrame,
     a: str,
@@ -217,9 +246,9 @@ def paired_frame(
         for one pair) of the differences in points, ``n_pairs``, ``a_wins`` (pairs
         where A's value is higher), ``t_low``, ``t_high``, ``p`` (:func:`t_interval`;
         NaN for one pair), ``boot_low``, ``boot_high`` (:func:`bootstrap_interval`;
-        NaN without per-image values) and ``paper`` (the paper's A − B for the
+        NaN without per-image values), ``paper`` (the paper's A − B for the
         cell; NaN where it has no figure, or for a metric that is not a reading of
-        its IoU). ``attrs``: ``a``, ``b``, ``key``, ``value``, ``resamples``.
+        its IoU) and ``verdict`` (:func:`verdict` of the t interval on ``paper``). ``attrs``: ``a``, ``b``, ``key``, ``value``, ``resamples``.
 
     Raises:
         ValueError: bad results (as :func:`synthcal.eval.tables.aggregate`), an
@@ -250,6 +279,7 @@ def paired_frame(
     compare = value in READINGS
     out["paper"] = [_paper_difference(row, key, a, b, aliases or {}) if compare else np.nan
                     for row in out[others].to_dict("records")]
+    out["verdict"] = [verdict(lo, hi, d) for lo, hi, d in zip(out["t_low"], out["t_high"], out["paper"], strict=True)]
     out.attrs.update(a=a, b=b, key=key, value=value, resamples=resamples)
     return out
 
@@ -284,8 +314,8 @@ def format_paired(
     Rows are the pair keys that take more than one value (dataset always), in
     the paper's order; the others are stated in the caption. Columns: ``A − B``
     (mean ± std of the per-seed differences, points), the t and bootstrap 95 %
-    intervals, the t test's p, ``A > B`` (seeds) and ``paper A − B``. CSV has the
-    numbers of :func:`paired_frame`.
+    intervals, the t test's p, ``A > B`` (seeds), ``paper A − B`` and the verdict.
+    CSV has the numbers of :func:`paired_frame`.
     """
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
@@ -298,8 +328,9 @@ def format_paired(
                               key=lambda i: [o[cells[k].iloc[i]] for o, k in zip(order, varying, strict=True)])]
     if fmt == "csv":
         return cells[[*varying, "mean", "std", "n_pairs", "a_wins", "t_low", "t_high", "p", "boot_low", "boot_high",
-                      "paper"]].to_csv(index=False)
-    header = [*varying, f"{a} − {b}", "95 % CI (t)", "95 % CI (bootstrap)", "p", f"{a} > {b}", f"paper {a} − {b}"]
+                      "paper", "verdict"]].to_csv(index=False)
+    header = [*varying, f"{a} − {b}", "95 % CI (t)", "95 % CI (bootstrap)", "p", f"{a} > {b}", f"paper {a} − {b}",
+              "verdict"]
     body = []
     for _, row in cells.iterrows():
         paper = MISSING if pd.isna(row["paper"]) else f"{row['paper']:+.2f}"
@@ -307,9 +338,9 @@ def format_paired(
             _signed(row["mean"], row["std"], row["n_pairs"]),
             _interval(row["t_low"], row["t_high"], "undefined (1 seed)" if row["n_pairs"] < 2 else MISSING),
             _interval(row["boot_low"], row["boot_high"]), _p_value(row["p"]),
-            f"{row['a_wins']} of {row['n_pairs']}", paper])
+            f"{row['a_wins']} of {row['n_pairs']}", paper, row["verdict"]])
     caption = wrap_caption(_paired_caption(a, b, key, value, constants, resamples), fmt)
-    return text_table(header, body, "l" * len(varying) + "r" * (len(header) - len(varying)), caption, fmt)
+    return text_table(header, body, "l" * len(varying) + "r" * (len(header) - len(varying) - 1) + "l", caption, fmt)
 
 
 def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str, str], resamples: int) -> str:
@@ -323,7 +354,8 @@ def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str
             f"drawn, not to the split (– where the runs' per-image scores are missing). {a} > {b}: seeds where {a} "
             f"scores higher. Paper: the published {a} − {b} for the same cell (a UNet's segmentation, the paper's "
             f"own training; SPEC §7)"
-            + ("" if value in READINGS else f"; none for {value}, which is not a reading of the paper's IoU") + ".")
+            + ("" if value in READINGS else f"; none for {value}, which is not a reading of the paper's IoU") + ". "
+            f"Verdict on the paper's {a} − {b} from the t interval alone (docs/reproduction.md, \"Verdicts\").")
     if constants:
         text += " " + "; ".join(f"{k}: {SEGMENTATION_WORDS.get(v, v) if k == 'segmentation' else v}"
                                 for k, v in constants.items()) + "."

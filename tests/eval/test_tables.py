@@ -339,6 +339,20 @@ def test_paired_over_another_key_and_other_metrics():
         paired_frame(paired_runs(), "proposed", "nobody")
 
 
+def test_each_paired_cell_has_a_verdict_on_the_papers_difference():
+    from synthcal.eval.statistics import UNDECIDED, format_paired, paired_frame
+
+    by_model = paired_frame(paired_runs(), "proposed", "sha2020").set_index("loss")
+    # Top-MSE: [-0.42, +4.02] holds both 0 and the paper's +1.97; MSE: -1 point on every seed, the paper +1.24.
+    assert by_model.loc["top-mse", "verdict"] == UNDECIDED
+    assert by_model.loc["mse", "verdict"] == "opposite"
+    # Over the loss: +9.4 points, the interval clear of 0 on the side of the paper's +2.26.
+    by_loss = paired_frame(paired_runs(), "top-mse", "mse", key="loss").set_index("model")
+    assert by_loss.loc["proposed", "verdict"] == "consistent with the paper"
+    text = format_paired(paired_runs(), "proposed", "sha2020")
+    assert text.splitlines()[0].endswith("| verdict |") and "| -1.00 ± 0.00 |" in text and text.count("| opposite |") == 1
+
+
 def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
     from synthcal.cli import main
 
@@ -359,9 +373,10 @@ def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
     assert main(["table", str(tmp_path), "--paired", "proposed", "baseline"]) == 0  # baseline: sha2020's estimator
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == ("| dataset | loss | proposed − sha2020 | 95 % CI (t) | 95 % CI (bootstrap) | p | "
-                        "proposed > sha2020 | paper proposed − sha2020 |")
+                        "proposed > sha2020 | paper proposed − sha2020 | verdict |")
     # Every image of a run scores its mean: the bootstrap has no spread to find.
-    assert lines[2] == "| intersection-1 | top-mse | +1.80 ± 1.79 | [-0.42, +4.02] | [+1.80, +1.80] | 0.088 | 4 of 5 | +1.97 |"
+    assert lines[2] == ("| intersection-1 | top-mse | +1.80 ± 1.79 | [-0.42, +4.02] | [+1.80, +1.80] | 0.088 | 4 of 5 | "
+                        "+1.97 | consistent with the paper (and with no difference) |")
     assert lines[3].startswith("| intersection-1 | mse | -1.00 ± 0.00 | [-1.00, -1.00] | [-1.00, -1.00] | < 0.001 |")
     assert main(["table", str(tmp_path), "--paired", "proposed", "identity", "--metric", "iou_part",
                  "--format", "csv"]) == 0
@@ -379,7 +394,7 @@ def test_table_paired_command_on_hand_made_run_records(tmp_path, capsys):
     assert main(["table", str(tmp_path), "--paired", "proposed", "identity"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("| dataset | loss | segmentation | proposed − identity |")
-    assert "| intersection-1 | top-mse | unet | +60.00 | undefined (1 seed) | [+60.00, +60.00] | – | 1 of 1 | – |" in lines
+    assert "| intersection-1 | top-mse | unet | +60.00 | undefined (1 seed) | [+60.00, +60.00] | – | 1 of 1 | – | – |" in lines
     assert main(["table", str(tmp_path), "--paired", "proposed", "nobody"]) == 2
     assert main(["table", str(tmp_path), "--paired", "proposed", "loss=mse"]) == 2
     err = capsys.readouterr().err.splitlines()

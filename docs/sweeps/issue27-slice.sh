@@ -76,6 +76,9 @@ step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved o
 # ---- 2026-11-26 (fifth session) stopped here (intersection-3 under way; finished runs are reused); the next slices, in this order ----
 # 15a. intersections 3-5, Top-MSE
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator sha2020 proposed retrieved oracle-template template $SEL $COMMON --workers 2
+# 18. (sixth session) the matching-score claim: proposed with MSE matching beside its Top-MSE matching runs,
+#     Top-MSE loss, intersection-1 and -2 (`synthcal table results --paired matching_score=top-mse matching_score=mse`)
+step $S bench --datasets intersection-1 intersection-2 --estimator proposed --matching mse $SEL $COMMON --workers 2
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)
 step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
 # 15b. intersections 3-5 with MSE, mixed-4/-5 on both losses

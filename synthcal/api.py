@@ -297,7 +297,8 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
 
     Each finished run of a bundled paper model trained ``step-by-step`` under
     ``segmentation: unet`` (:func:`synthcal.eval.segmentation.unet_records`) names
-    its UNet by the key its estimator gave it (:mod:`synthcal.estimators.paper`,
+    its UNet by the key its estimator gave it, as the run recorded it (``stage_keys``;
+    for runs from before it was recorded, recomputed: :mod:`synthcal.estimators.paper`,
     ``cache_dir``: the train split's arrays, sizes and code hash, the UNet's
     settings, the learning rate validation chose, the seed); runs sharing a UNet
     (every model and loss of one seed, unless validation chose them different
@@ -387,7 +388,10 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
                                                            np.asarray(train.images)[: len(semantics)], full_size,
                                                            work_size)
         work_size, train_key = train_keys[split]
-        key = unet_cache_key(train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
+        # Recorded since the UNet may stop early on validation (its key then holds the split); runs from
+        # before had none, and their UNets trained every epoch.
+        key = (record.get("stage_keys") or {}).get("unet") or unet_cache_key(
+            train_key, s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size, rate, run.seed)
         if key in rows:  # another model (or loss) of the same seed, on the same UNet
             rows[key]["models"] = ", ".join(sorted({*rows[key]["models"].split(", "), run.model}))
             continue

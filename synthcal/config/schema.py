@@ -453,7 +453,9 @@ class TrainingSettings(StrictModel):
     ``baseline``; :mod:`synthcal.models.stn`), so BN is an ablation of its own.
     ``patience`` (None: every epoch, the last weights): the step-by-step STN is
     scored on the validation split after each epoch, the best epoch's weights are
-    kept, and training stops after ``patience`` epochs without a better score.
+    kept, and training stops after ``patience`` epochs without a better score;
+    a UNet in the loop (``segmentation: unet``) is stopped the same way by its
+    validation cross-entropy.
     ``select`` (None: ``learning_rate`` alone): the learning rates tried, the one
     whose trained model scores best on the validation split kept. Both read the
     validation split, never test.

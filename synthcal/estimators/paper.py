@@ -82,7 +82,9 @@ gets the template the trained Siamese retrieves (as a test image would), the
 STN refines it, and the run's own loss compares the views
 (:func:`synthcal.training.validation_loss`; docs/decisions.md says why).
 ``patience``: the step-by-step STN is scored after every epoch, the best epoch's
-weights kept, training stopped after ``patience`` epochs without a better score.
+weights kept, training stopped after ``patience`` epochs without a better score;
+with the UNet in the loop (step-by-step) the UNet too, by its validation
+cross-entropy (:func:`synthcal.training.segmentation_validation_loss`).
 ``select: {learning_rate: [...]}``: the whole model is fitted at each rate and the
 best-scoring fit kept; :attr:`selection` records ``{split, grid, scores, chosen,
 score}``. A rate is one setting for every stage, so the cached UNet and Siamese
@@ -96,6 +98,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any, ClassVar, TypedDict, TypeVar, cast
 
@@ -145,12 +148,14 @@ from synthcal.training import (
     digest,
     embed_templates,
     estimate,
+    held_out_cache_key,
     reduce_class_map_batches,
     reduce_class_maps,
     reduce_images,
     reduce_scene,
     resolution_matrix,
     retrieve_templates,
+    segmentation_validation_loss,
     stn_templates,
     train_cache_key,
     train_end_to_end,
@@ -273,6 +278,9 @@ class PaperEstimator:
         self.label = model_label(self.model, self.settings.batch_norm)
         self.trained_stages: list[str] = []
         self.history: dict[str, list[float]] = {}
+        # Cache keys of the kept fit's shared stages (``unet``, ``siamese``): the harness records them,
+        # so a run's UNet is found again by the key it had (synthcal.segmentation_quality).
+        self.stage_keys: dict[str, str] = {}
         self.selection: dict[str, Any] | None = None
         self._fitted: dict[str, Any] | None = None
         self._held_out: TrainingData | None = None
@@ -398,19 +406,22 @@ class PaperEstimator:
         self.trained_stages, self.selection = [], None
         data, keys = self._data(train, dictionary, scene)
         self._held_out = None if validation is None else self._validation_data(validation, data)
+        if validation is not None:
+            keys["held_out"] = held_out_cache_key(np.asarray(validation.semantics),
+                                                  np.asarray(validation.images) if self.uses_unet else None)
         grid = (s.learning_rate,) if s.select is None else s.select.learning_rate
         scores: list[float] = []
-        kept: tuple[dict[str, Any] | None, dict[str, list[float]]] = (None, {})
+        kept: tuple[dict[str, Any] | None, dict[str, list[float]], dict[str, str]] = (None, {}, {})
         try:
             for rate in grid:
-                self.settings, self.history = s.model_copy(update={"learning_rate": rate}), {}
+                self.settings, self.history, self.stage_keys = s.model_copy(update={"learning_rate": rate}), {}, {}
                 self._fit_at(train, dictionary, data, keys)
                 scores.append(float("nan") if s.select is None else self._validation_score())
                 if _best(scores) == len(scores) - 1:
-                    kept = (self._fitted, self.history)  # only the best fit so far is held
+                    kept = (self._fitted, self.history, self.stage_keys)  # only the best fit so far is held
         finally:
             self.settings, self._validation = s, None  # the kept fit may be an earlier rate's
-        self._fitted, self.history = kept
+        self._fitted, self.history, self.stage_keys = kept
         if s.select is not None:
             self.selection = {"split": "validation", "score": f"L_warp ({self.loss}) of the estimates",
                               "grid": {"learning_rate": list(grid)}, "scores": {"learning_rate": scores},
@@ -494,14 +505,21 @@ class PaperEstimator:
         unet_key = None
         unet = None
         if self.uses_unet:
+            # Under patience the UNet keeps its best epoch by validation cross-entropy, as the STN does by L_warp.
+            held_out = self._held_out if s.patience is not None else None
+            early = () if held_out is None else (keys["held_out"], s.patience)
             unet_key = unet_cache_key(keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
-                                      s.learning_rate, self.seed)
+                                      s.learning_rate, self.seed, *early)
+            validate = None if held_out is None else partial(segmentation_validation_loss, held_out=held_out)
             unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
-                m, data, s.unet_epochs, log=log, **common))
+                m, data, s.unet_epochs, log=log, validate=validate, patience=s.patience,
+                scores=self._log("unet-validation") if validate else None, **common))
             data = with_unet_maps(data, unet, self.device)
         siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,
                              s.siamese_width, s.embedding_dim, s.siamese_epochs, s.batch_size, s.learning_rate,
                              self.seed)
+        self.stage_keys.update({"siamese": siamese_key} if unet_key is None else {"unet": unet_key,
+                                                                                  "siamese": siamese_key})
         siamese = self._stage("siamese", siamese_key, self._siamese(), lambda m, log: train_siamese(
             m, data, unet, s.siamese_epochs, log=log, **common))
         return data, unet, siamese, self._embedding(siamese_key, keys["dictionary"], siamese, data)

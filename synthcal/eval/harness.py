@@ -31,7 +31,9 @@ Results layout
                                         sizes (samples of each split used), device,
                                         seconds (the run's process), fit_seconds,
                                         predict_seconds, the estimator's ``history``
-                                        (per-epoch losses) if any, summary
+                                        (per-epoch losses), ``selection`` (what
+                                        validation chose) and ``stage_keys`` (cache
+                                        keys of its shared stages) if any, summary
     RESULTS/cache/<stage>/<key>.pt      shared trained stages (:mod:`.training`)
 
 ``run-id`` is :attr:`Run.id` (:mod:`synthcal.eval.runs`, "Run ids"): readable

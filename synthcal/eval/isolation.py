@@ -193,7 +193,8 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
         dict with ``estimates`` (:func:`_plain_estimates`, None on failure), ``error``
         (``""`` or ``"<stage>: <exception>"``), ``data_error`` (a store or split that
         cannot be read: the sweep stops), ``sizes`` (samples of each split used),
-        ``fit_seconds``, ``predict_seconds``, ``history``, ``selection``, ``traceback`` where they apply.
+        ``fit_seconds``, ``predict_seconds``, ``history``, ``selection``, ``stage_keys``, ``traceback`` where
+        they apply.
     """
     outcome: dict[str, Any] = {"estimates": None, "error": ""}
     name = "load"
@@ -229,7 +230,8 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
         outcome["predict_seconds"] = time.perf_counter() - started
         name = "predict: result not readable"
         outcome["estimates"] = _plain_estimates(estimates, len(test.indices))
-        for name in ("history", "selection"):  # per-epoch losses and what validation chose (bundled models)
+        # Per-epoch losses, what validation chose, the cache keys of the shared stages (bundled models).
+        for name in ("history", "selection", "stage_keys"):
             value = getattr(estimator, name, None)
             if isinstance(value, dict):
                 outcome[name] = json.loads(json.dumps(value, default=float))

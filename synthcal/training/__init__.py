@@ -8,7 +8,7 @@ Imports of synthcal only :mod:`synthcal.models`, :mod:`synthcal.data`, :mod:`syn
 :mod:`synthcal.config` and :mod:`synthcal.utils` (tests/test_architecture.py).
 """
 
-from synthcal.training.cache import StageCache, digest, train_cache_key, unet_cache_key
+from synthcal.training.cache import StageCache, digest, held_out_cache_key, train_cache_key, unet_cache_key
 from synthcal.training.resolution import (
     NUM_CLASSES,
     reduce_class_map_batches,
@@ -31,6 +31,7 @@ from synthcal.training.stages import (
     input_maps,
     reduce_scene,
     retrieve_templates,
+    segmentation_validation_loss,
     stn_templates,
     train_end_to_end,
     train_siamese,
@@ -51,6 +52,7 @@ __all__ = [
     "reduce_images",
     "digest",
     "train_cache_key",
+    "held_out_cache_key",
     "unet_cache_key",
     "StageCache",
     "TrainingData",
@@ -67,6 +69,7 @@ __all__ = [
     "train_stn",
     "StnExamples",
     "validation_loss",
+    "segmentation_validation_loss",
     "best_epoch",
     "end_to_end_stage",
     "train_end_to_end",

@@ -26,7 +26,7 @@ from torch import Tensor
 
 from synthcal.utils.atomic import atomic_write
 
-__all__ = ["digest", "train_cache_key", "unet_cache_key", "StageCache"]
+__all__ = ["digest", "train_cache_key", "held_out_cache_key", "unet_cache_key", "StageCache"]
 
 
 def digest(*parts: Any) -> str:
@@ -56,10 +56,21 @@ def train_cache_key(code: str, semantics: np.ndarray, images: np.ndarray | None,
     return digest(code, semantics, images if images is not None else 0, full_size, work_size)
 
 
+def held_out_cache_key(semantics: np.ndarray, images: np.ndarray | None) -> str:
+    """Key of a validation split as a stage's early stopping reads it: (K, H, W) class maps, (K, H, W, 3)
+    images (None when no UNet reads them)."""
+    return digest("validation", semantics, images if images is not None else 0)
+
+
 def unet_cache_key(train_key: str, width: int, depth: int, epochs: int, batch_size: int, learning_rate: float,
-             seed: int) -> str:
-    """Key of the UNet trained on the split ``train_key`` with these settings (:class:`StageCache` ``unet``)."""
-    return digest("unet", train_key, width, depth, epochs, batch_size, learning_rate, seed)
+                   seed: int, held_out_key: str | None = None, patience: int | None = None) -> str:
+    """Key of the UNet trained on the split ``train_key`` with these settings (:class:`StageCache` ``unet``).
+
+    With ``patience``, the UNet kept its best epoch on the validation split ``held_out_key``
+    (:func:`held_out_cache_key`), and both are in the key; without, the key is as it always was.
+    """
+    early = () if patience is None else (held_out_key, patience)
+    return digest("unet", train_key, width, depth, epochs, batch_size, learning_rate, seed, *early)
 
 
 class StageCache:

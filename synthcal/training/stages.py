@@ -86,6 +86,7 @@ __all__ = [
     "retrieve_templates",
     "stn_templates",
     "train_unet",
+    "segmentation_validation_loss",
     "train_siamese",
     "MAP_CACHE_BYTES",
     "map_cache_bytes",
@@ -93,6 +94,7 @@ __all__ = [
     "train_stn",
     "validation_loss",
     "best_epoch",
+    "BestEpoch",
     "end_to_end_stage",
     "train_end_to_end",
     "estimate",
@@ -334,16 +336,51 @@ def _step(optimiser: torch.optim.Optimizer, loss: Tensor) -> float:
     return loss.item()
 
 
+class BestEpoch:
+    """Early stopping on a validation score: keeps the weights of the epoch with the lowest
+    score (ties: the later, longer-trained one) and says when ``patience`` epochs passed
+    without a better one.
+
+    Args:
+        patience: epochs without a better score before stopping (None: never stop).
+        scores: the list that receives every epoch's score (None: a new one, :attr:`scores`).
+    """
+
+    def __init__(self, patience: int | None = None, scores: list[float] | None = None) -> None:
+        self.patience = patience
+        self.scores: list[float] = [] if scores is None else scores
+        self.best: dict[str, Tensor] | None = None
+
+    def stop_after(self, module: nn.Module, score: float) -> bool:
+        """Record the epoch just trained, scoring ``score``; True when training should stop."""
+        self.scores.append(score)
+        if score <= min(self.scores):
+            self.best = {name: value.detach().clone() for name, value in module.state_dict().items()}
+        return self.patience is not None and len(self.scores) - 1 - best_epoch(self.scores) >= self.patience
+
+    def restore(self, module: nn.Module) -> None:
+        """Load the best epoch's weights into ``module`` (nothing when no epoch was scored)."""
+        if self.best is not None:
+            module.load_state_dict(self.best)
+
+
 def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr: float, device: torch.device,
-               seed: int = 0, progress: bool = False, log: list[float] | None = None) -> UNet:
+               seed: int = 0, progress: bool = False, log: list[float] | None = None,
+               validate: Callable[[nn.Module], float] | None = None, patience: int | None = None,
+               scores: list[float] | None = None) -> UNet:
     """Cross-entropy training of ``unet`` on the train images (SPEC §7). Returns it, trained.
 
     ``log``, if given, receives the mean loss of every epoch (as for every stage).
+    ``validate`` (e.g. :func:`segmentation_validation_loss` on the validation split)
+    scores the UNet after each epoch into ``scores``; the best epoch's weights are
+    returned, and training stops after ``patience`` epochs without a better score
+    (None: all), as :func:`train_stn` does.
     """
     torch.manual_seed(seed)
     generator = torch.Generator().manual_seed(seed)
     unet.to(device).train()
     optimiser = torch.optim.Adam(unet.parameters(), lr=lr)
+    keeper = BestEpoch(patience, scores)
     bar = _epochs(epochs, "unet", progress)
     for _ in bar:
         losses: list[float] = []
@@ -352,7 +389,24 @@ def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr:
             losses.append(_step(optimiser, loss))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
+        if validate is not None and keeper.stop_after(unet, validate(unet)):
+            break
+    keeper.restore(unet)
     return unet.eval()
+
+
+@torch.no_grad()
+def segmentation_validation_loss(unet: nn.Module, held_out: TrainingData, batch_size: int = 256) -> float:
+    """Mean cross-entropy of ``unet`` (eval mode, then back) on held-out items' images against their true maps."""
+    was_training = unet.training
+    unet.eval()
+    device = next(unet.parameters()).device
+    total = 0.0
+    for index in torch.arange(len(held_out)).split(batch_size):
+        logits = unet(_images(held_out, index, device))
+        total += segmentation_loss(logits, held_out.semantics[index].to(device)).item() * len(index)
+    unet.train(was_training)
+    return total / max(len(held_out), 1)
 
 
 @torch.no_grad()
@@ -499,10 +553,9 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: 
     chosen = data.match if templates is None else templates
     examples = StnExamples(data, chosen, unet, device)
     template_homographies = data.template_homographies[chosen].to(device)
-    scores = [] if scores is None else scores
-    best: dict[str, Tensor] | None = None
+    keeper = BestEpoch(patience, scores)
     bar = _epochs(epochs, f"stn {loss}", progress)
-    for epoch in bar:
+    for _ in bar:
         losses: list[float] = []
         for index in _batches(len(data), batch_size, generator):
             inputs, target = examples.batch(index)
@@ -511,15 +564,9 @@ def train_stn(stn: nn.Module, data: TrainingData, unet: nn.Module | None, loss: 
             losses.append(_step(optimiser, value))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
-        if validate is None:
-            continue
-        scores.append(validate(stn))
-        if scores[-1] <= min(scores):  # ties keep the later (longer-trained) weights
-            best = {name: value.detach().clone() for name, value in stn.state_dict().items()}
-        if patience is not None and epoch - best_epoch(scores) >= patience:
+        if validate is not None and keeper.stop_after(stn, validate(stn)):
             break
-    if best is not None:
-        stn.load_state_dict(best)
+    keeper.restore(stn)
     return stn.eval()
 
 

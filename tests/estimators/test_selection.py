@@ -15,7 +15,7 @@ from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.models import UNet
 from synthcal.store import read_split_indices, write_manifest
-from synthcal.training import best_epoch
+from synthcal.training import best_epoch, segmentation_validation_loss
 
 ROOT = Path(__file__).resolve().parents[2]
 RATES = [1e-4, 3e-3]
@@ -69,6 +69,8 @@ def test_the_best_rate_on_validation_is_kept_and_each_siamese_is_trained_once(sp
 def test_the_frozen_unet_segments_each_item_once_per_rate(splits, settings, monkeypatch):
     # The Siamese's epochs, the retrieval of the STN's templates, the STN's inputs and the
     # validation scores all read the frozen UNet's maps: made once per rate, not per reader.
+    # (Under patience the UNet also scores the validation split after each of its epochs: the
+    # smoke profile trains it for one.)
     frozen: list[int] = []
     forward = UNet.forward
 
@@ -83,7 +85,27 @@ def test_the_frozen_unet_segments_each_item_once_per_rate(splits, settings, monk
     estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
     assert estimator.trained_stages == ["unet", "siamese", "stn"] * len(RATES)
     train = min(len(splits["train"]), grid.get("max_train") or len(splits["train"]))
-    assert sum(frozen) == len(RATES) * (train + len(splits["validation"]))
+    assert grid["unet_epochs"] == 1 and len(estimator.history["unet-validation"]) == 1
+    assert sum(frozen) == len(RATES) * (train + len(splits["validation"]) + len(splits["validation"]))
+
+
+def test_under_patience_the_unet_keeps_its_best_validation_epoch(splits, settings, tmp_path):
+    early = {**settings, "unet_epochs": 3, "patience": 1}
+    estimator = load_estimator("baseline", settings=early, device="cpu", segmentation="unet", cache_dir=tmp_path)
+    estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    scores = estimator.history["unet-validation"]
+    assert 1 <= len(scores) <= 3 and len(estimator.history["unet"]) == len(scores)
+    held_out = estimator._held_out
+    kept = estimator._check_fitted()["unet"]
+    assert segmentation_validation_loss(kept, held_out) == pytest.approx(min(scores), rel=1e-6)
+    # Its key holds the validation split and patience: a UNet that trained every epoch is another one.
+    key = estimator.stage_keys["unet"]
+    assert (tmp_path / "unet" / f"{key}.pt").is_file()
+    plain = load_estimator("baseline", settings={**early, "patience": None}, device="cpu", segmentation="unet",
+                           cache_dir=tmp_path)
+    plain.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert plain.trained_stages[0] == "unet" and plain.stage_keys["unet"] != key
+    assert "unet-validation" not in plain.history
 
 
 def test_patience_keeps_the_best_validation_epoch(splits, settings):

@@ -11,7 +11,7 @@ from sklearn.metrics import accuracy_score, f1_score, jaccard_score
 
 from synthcal.cli import main
 from synthcal.data import load_split, read_scene
-from synthcal.eval.harness import collect_results
+from synthcal.eval.harness import collect_results, read_record
 from synthcal.eval.segmentation import (
     class_scores,
     confusion_matrix,
@@ -84,14 +84,17 @@ def test_models_that_read_different_unets_on_a_seed_are_summarised_apart():
 
 @pytest.fixture(scope="module")
 def unet_bench(smoke_stores, tmp_path_factory) -> tuple[Path, Path]:
-    """``proposed`` on intersection-1, seed 0, with a UNet and with true maps: (data, results)."""
+    """``proposed`` on intersection-1, seed 0, with a UNet and with true maps: (data, results).
+
+    Under ``--patience`` the UNet keeps its best validation epoch, so its cache key holds the
+    validation split: ``segmentation`` finds it by the key the run recorded."""
     data = tmp_path_factory.mktemp("unet-data")
     smoke_stores.copy(["intersection-1"], data)
     draw_splits(data / "intersection-1.zarr", seeds=[0])
     results = tmp_path_factory.mktemp("unet-results")
     assert main(["bench", "--data", str(data), "--datasets", "intersection-1", "--estimator", "proposed",
                  "--seeds", "0", "--results", str(results), "--profile", "smoke", "--device", "cpu",
-                 "--segmentation", "unet", "ground-truth", "--quiet", "--yes"]) == 0
+                 "--segmentation", "unet", "ground-truth", "--patience", "1", "--quiet", "--yes"]) == 0
     return data, results
 
 
@@ -103,6 +106,9 @@ def test_segmentation_prints_the_checkpoints_scores(unet_bench, smoke_config, ca
         ("intersection-1", 0, "proposed")]
     # Directly: the one UNet the bench cached, on the first test images the smoke profile uses.
     (checkpoint,) = (results / "cache" / "unet").glob("*.pt")
+    (unet_run,) = [record for record in map(read_record, (results / "runs").glob("*/run.json"))
+                   if record["run"]["segmentation"] == "unet"]
+    assert unet_run["stage_keys"]["unet"] == checkpoint.stem and "unet-validation" in unet_run["history"]
     settings = smoke_config.training("smoke").settings()
     unet = UNet(num_classes=4, width=settings["unet_width"], depth=settings["unet_depth"])
     unet.load_state_dict(torch.load(checkpoint, weights_only=True))

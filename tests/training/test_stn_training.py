@@ -144,3 +144,30 @@ def test_siamese_on_frozen_unet_maps_kept_matches_the_unet_rerun_per_batch(data,
     assert fits["per-batch"][0][-1] != fits["per-batch"][0][0]  # it trained
     for name, weight in fits["per-batch"][1].items():
         torch.testing.assert_close(fits["kept"][1][name], weight, rtol=1e-4, atol=1e-6)
+
+
+def test_unet_early_stopping_keeps_the_best_epochs_weights(data):
+    # Scores 3, 1, 2, 2 with patience 2: the fourth epoch is the second without a better score, so
+    # training stops there and returns the second epoch's weights — a plain 2-epoch run's, bit for bit.
+    designed = iter([3.0, 1.0, 2.0, 2.0, 0.5, 0.5])
+    scores: list[float] = []
+    torch.manual_seed(4)
+    initial = UNet(width=2, depth=1)
+    log: list[float] = []
+    stopped = stages.train_unet(copy.deepcopy(initial), data, 6, BATCH, LR, torch.device("cpu"), seed=SEED, log=log,
+                                validate=lambda unet: next(designed), patience=2, scores=scores)
+    assert scores == [3.0, 1.0, 2.0, 2.0] and len(log) == 4
+    two = stages.train_unet(copy.deepcopy(initial), data, 2, BATCH, LR, torch.device("cpu"), seed=SEED)
+    four = stages.train_unet(copy.deepcopy(initial), data, 4, BATCH, LR, torch.device("cpu"), seed=SEED)
+    for name, weight in two.state_dict().items():
+        assert torch.equal(stopped.state_dict()[name], weight), name
+    assert any(not torch.equal(four.state_dict()[n], w) for n, w in two.state_dict().items())  # it moved on
+
+
+def test_segmentation_validation_loss_is_the_item_weighted_cross_entropy(data):
+    torch.manual_seed(5)
+    unet = UNet(width=2, depth=1).train()
+    expected = F.cross_entropy(unet.eval()(data.images.float() / 255.0), data.semantics.long()).item()
+    unet.train()
+    assert stages.segmentation_validation_loss(unet, data, batch_size=3) == pytest.approx(expected, rel=1e-5)
+    assert unet.training  # back in the mode it came in

@@ -76,6 +76,7 @@ step $S bench --datasets intersection-2 --estimator sha2020 proposed retrieved o
 # ---- 2026-11-26 (fifth session) stopped here (intersection-3 under way; finished runs are reused); the next slices, in this order ----
 # 15a. intersections 3-5, Top-MSE
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator sha2020 proposed retrieved oracle-template template $SEL $COMMON --workers 2
+# ---- 2026-11-26 (sixth session) stopped here (the matching-score step under way; finished runs are reused) ----
 # 18. (sixth session) the matching-score claim: proposed with MSE matching beside its Top-MSE matching runs,
 #     Top-MSE loss, intersection-1 and -2 (`synthcal table results --paired matching_score=top-mse matching_score=mse`)
 step $S bench --datasets intersection-1 intersection-2 --estimator proposed --matching mse $SEL $COMMON --workers 2

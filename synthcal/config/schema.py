@@ -26,7 +26,15 @@ from pydantic import (
     model_validator,
 )
 
-from synthcal.config.vocabulary import GRID_AXES, ClassReduction, Dictionary, Images, Segmentation, StnTemplate
+from synthcal.config.vocabulary import (
+    GRID_AXES,
+    ClassReduction,
+    Dictionary,
+    Images,
+    Segmentation,
+    StnTemplate,
+    UnetClassWeights,
+)
 
 __all__ = [
     "CONFIG_VERSION",
@@ -456,6 +464,10 @@ class TrainingSettings(StrictModel):
     kept, and training stops after ``patience`` epochs without a better score;
     a UNet in the loop (``segmentation: unet``) is stopped the same way by its
     validation cross-entropy.
+    ``unet_class_weights`` (None: the paper's plain cross-entropy): ``inverse-frequency``
+    weighs each class of the UNet's cross-entropy (step-by-step and end-to-end) by the
+    inverse of its pixel share in the train maps, normalised to mean 1 — a reading the
+    paper leaves open (docs/decisions.md, "The UNet's loss").
     ``select`` (None: ``learning_rate`` alone): the learning rates tried, the one
     whose trained model scores best on the validation split kept. Both read the
     validation split, never test.
@@ -479,6 +491,7 @@ class TrainingSettings(StrictModel):
     class_reduction: ClassReduction = "sum"
     batch_norm: StrictBool | None = None
     patience: StrictInt | None = Field(None, ge=1)
+    unet_class_weights: UnetClassWeights | None = None
     select: SelectGrid | None = None
 
     @field_validator("work_size")
@@ -502,11 +515,12 @@ class TrainingProfile(TrainingSettings):
     def settings(self) -> dict[str, Any]:
         """The :class:`TrainingSettings` fields as a plain dict (what estimators take).
 
-        ``batch_norm``, ``patience`` and ``select`` are left out while None, so that the
+        ``batch_norm``, ``patience``, ``unet_class_weights`` and ``select`` are left out while None, so that the
         runs recorded before they existed keep their ids (the settings are in the run's
         hash; set, they are part of it).
         """
-        unset = {name for name in ("batch_norm", "patience", "select") if getattr(self, name) is None}
+        unset = {name for name in ("batch_norm", "patience", "unet_class_weights", "select")
+                 if getattr(self, name) is None}
         return self.model_dump(mode="json", exclude={"segmentation", *unset})
 
 

@@ -30,6 +30,7 @@ __all__ = [
     "Segmentation",
     "StnTemplate",
     "ClassReduction",
+    "UnetClassWeights",
     "Dictionary",
     "Images",
     "MODELS",
@@ -76,6 +77,8 @@ StnTemplate = Literal["retrieved", "ground-truth"]
 # How MSE-based losses and matching scores reduce over the class channels (SPEC §7):
 # ``sum``: the squared distance between per-pixel class vectors; ``mean``: that divided by C.
 ClassReduction = Literal["sum", "mean"]
+# A weighting of the UNet's cross-entropy over the classes (None in settings: the paper's plain one).
+UnetClassWeights = Literal["inverse-frequency"]
 # What ``synthcal bench`` searches: the seed's dictionary split, or every pool sample
 # outside the seed's train, test and validation sets (README "The pool dictionary").
 Dictionary = Literal["split", "pool"]

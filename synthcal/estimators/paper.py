@@ -149,6 +149,7 @@ from synthcal.training import (
     embed_templates,
     estimate,
     held_out_cache_key,
+    inverse_frequency_weights,
     reduce_class_map_batches,
     reduce_class_maps,
     reduce_images,
@@ -475,7 +476,8 @@ class PaperEstimator:
         if self.training == "end-to-end":
             unet = self._unet() if self.uses_unet else ClassMapLogits()
             siamese, stn = self._siamese(), self._stn(data.work_size)
-            composite = composite_model(unet, siamese, stn, data, self.loss, s.class_reduction, s.stn_template)
+            composite = composite_model(unet, siamese, stn, data, self.loss, s.class_reduction, s.stn_template,
+                                        self._unet_class_weights(data))
             train_end_to_end(composite, data, self.uses_unet, s.end_to_end_epochs, log=self._log("end-to-end"),
                              **common)
             self.trained_stages.append("end-to-end")
@@ -510,10 +512,14 @@ class PaperEstimator:
             early = () if held_out is None else (keys["held_out"], s.patience)
             unet_key = unet_cache_key(keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
                                       s.learning_rate, self.seed, *early)
-            validate = None if held_out is None else partial(segmentation_validation_loss, held_out=held_out)
+            weights = self._unet_class_weights(data)
+            if weights is not None:  # another loss, another UNet (plain-loss keys stay as they were)
+                unet_key = digest(unet_key, s.unet_class_weights)
+            validate = None if held_out is None else partial(segmentation_validation_loss, held_out=held_out,
+                                                              class_weights=weights)
             unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
                 m, data, s.unet_epochs, log=log, validate=validate, patience=s.patience,
-                scores=self._log("unet-validation") if validate else None, **common))
+                scores=self._log("unet-validation") if validate else None, class_weights=weights, **common))
             data = with_unet_maps(data, unet, self.device)
         siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,
                              s.siamese_width, s.embedding_dim, s.siamese_epochs, s.batch_size, s.learning_rate,
@@ -523,6 +529,13 @@ class PaperEstimator:
         siamese = self._stage("siamese", siamese_key, self._siamese(), lambda m, log: train_siamese(
             m, data, unet, s.siamese_epochs, log=log, **common))
         return data, unet, siamese, self._embedding(siamese_key, keys["dictionary"], siamese, data)
+
+    def _unet_class_weights(self, data: TrainingData) -> Tensor | None:
+        """(C,) weights of the UNet's cross-entropy under ``unet_class_weights`` (None: the plain one),
+        from the train maps at the working resolution."""
+        if self.settings.unet_class_weights is None or not self.uses_unet:
+            return None
+        return inverse_frequency_weights(data.semantics)
 
     def _refiner(self, data: TrainingData, unet: nn.Module | None, siamese: SiameseNet, embedding: Tensor,
                  common: _Common) -> nn.Module | None:

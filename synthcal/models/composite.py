@@ -108,6 +108,7 @@ class CompositeModel(nn.Module):
         margin: contrastive margin.
         class_reduction: ``"sum"`` or ``"mean"`` over classes in MSE-based warp losses.
         stn_template: ``"retrieved"`` or ``"ground-truth"``: the STN's template in training.
+        class_weights: (C,) weights of ``L_CE``'s classes (None: the plain cross-entropy).
     """
 
     # Buffers, declared so that type checkers see Tensors (nn.Module.__getattr__ is untyped).
@@ -115,11 +116,12 @@ class CompositeModel(nn.Module):
     dictionary_semantic: Tensor
     dictionary_homography: Tensor
     dictionary_embedding: Tensor
+    class_weights: Tensor | None
 
     def __init__(self, unet: UNet, siamese: SiameseNet, stn: nn.Module, scene: Tensor,
                  dictionary_semantic: Tensor, dictionary_homography: Tensor, num_classes: int = 4,
                  warp_loss_name: str = "top_mse", margin: float = 1.0, class_reduction: str = CLASS_REDUCTION,
-                 stn_template: str = "retrieved"):
+                 stn_template: str = "retrieved", class_weights: Tensor | None = None):
         super().__init__()
         if stn_template not in STN_TEMPLATES:
             raise ValueError(f"stn_template must be one of {', '.join(STN_TEMPLATES)}; got {stn_template!r}")
@@ -135,6 +137,7 @@ class CompositeModel(nn.Module):
         self.register_buffer("dictionary_semantic", dictionary_semantic.to(torch.uint8), persistent=False)
         self.register_buffer("dictionary_homography", dictionary_homography.double(), persistent=False)
         self.register_buffer("dictionary_embedding", torch.empty(0), persistent=False)
+        self.register_buffer("class_weights", class_weights, persistent=False)
 
     @property
     def image_size(self) -> tuple[int, int]:
@@ -244,7 +247,7 @@ class CompositeModel(nn.Module):
         total = logits.new_zeros(())
         terms: dict[str, float] = {}
         if eta:
-            ce = segmentation_loss(logits, target_semantic)
+            ce = segmentation_loss(logits, target_semantic, self.class_weights)
             total, terms["ce"] = total + eta * ce, ce.item()
         embedding = self.siamese(probabilities) if tau or (gamma and self.stn_template == "retrieved") else None
         if tau and embedding is not None:

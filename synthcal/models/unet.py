@@ -71,14 +71,17 @@ class UNet(nn.Module):
         return self.classifier(x)
 
 
-def segmentation_loss(logits: Tensor, target: Tensor) -> Tensor:
+def segmentation_loss(logits: Tensor, target: Tensor, class_weights: Tensor | None = None) -> Tensor:
     """Cross-entropy ``L_CE`` of class logits against class ids.
 
     Args:
         logits: (B, C, H, W).
         target: (B, H, W) integer class ids.
+        class_weights: (C,) weight of each class (None: the plain cross-entropy); the
+            mean is then over the pixels' weights, as ``torch.nn.functional.cross_entropy``.
 
     Returns:
         Scalar mean over pixels and batch.
     """
-    return F.cross_entropy(logits, target.long())
+    weight = None if class_weights is None else class_weights.to(logits.device, logits.dtype)
+    return F.cross_entropy(logits, target.long(), weight=weight)

@@ -85,6 +85,7 @@ __all__ = [
     "embed_templates",
     "retrieve_templates",
     "stn_templates",
+    "inverse_frequency_weights",
     "train_unet",
     "segmentation_validation_loss",
     "train_siamese",
@@ -364,13 +365,27 @@ class BestEpoch:
             module.load_state_dict(self.best)
 
 
+def inverse_frequency_weights(semantics: Tensor, num_classes: int = NUM_CLASSES) -> Tensor:
+    """(C,) float32 weight of each class: the inverse of its pixel share in ``semantics``
+    ((K, h, w) class ids), normalised to mean 1 (a class with no pixel counts as one).
+
+    >>> inverse_frequency_weights(torch.tensor([[[0, 0, 0, 1]]]), num_classes=2).tolist()
+    [0.5, 1.5]
+    """
+    counts = torch.bincount(semantics.flatten().long(), minlength=num_classes).double().clamp(min=1)
+    weights = 1.0 / counts
+    return (weights / weights.mean()).float()
+
+
 def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr: float, device: torch.device,
                seed: int = 0, progress: bool = False, log: list[float] | None = None,
                validate: Callable[[nn.Module], float] | None = None, patience: int | None = None,
-               scores: list[float] | None = None) -> UNet:
+               scores: list[float] | None = None, class_weights: Tensor | None = None) -> UNet:
     """Cross-entropy training of ``unet`` on the train images (SPEC §7). Returns it, trained.
 
     ``log``, if given, receives the mean loss of every epoch (as for every stage).
+    ``class_weights``: (C,) weights of the cross-entropy's classes (None: the paper's
+    plain one; :func:`inverse_frequency_weights`).
     ``validate`` (e.g. :func:`segmentation_validation_loss` on the validation split)
     scores the UNet after each epoch into ``scores``; the best epoch's weights are
     returned, and training stops after ``patience`` epochs without a better score
@@ -385,7 +400,8 @@ def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr:
     for _ in bar:
         losses: list[float] = []
         for index in _batches(len(data), batch_size, generator):
-            loss = segmentation_loss(unet(_images(data, index, device)), data.semantics[index].to(device))
+            loss = segmentation_loss(unet(_images(data, index, device)), data.semantics[index].to(device),
+                                     class_weights)
             losses.append(_step(optimiser, loss))
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         _record(log, losses)
@@ -396,15 +412,17 @@ def train_unet(unet: UNet, data: TrainingData, epochs: int, batch_size: int, lr:
 
 
 @torch.no_grad()
-def segmentation_validation_loss(unet: nn.Module, held_out: TrainingData, batch_size: int = 256) -> float:
-    """Mean cross-entropy of ``unet`` (eval mode, then back) on held-out items' images against their true maps."""
+def segmentation_validation_loss(unet: nn.Module, held_out: TrainingData, batch_size: int = 256,
+                                 class_weights: Tensor | None = None) -> float:
+    """Mean cross-entropy of ``unet`` (eval mode, then back) on held-out items' images against their true maps
+    (weighted by ``class_weights`` as in :func:`train_unet`; the batch means are weighted by their items)."""
     was_training = unet.training
     unet.eval()
     device = next(unet.parameters()).device
     total = 0.0
     for index in torch.arange(len(held_out)).split(batch_size):
         logits = unet(_images(held_out, index, device))
-        total += segmentation_loss(logits, held_out.semantics[index].to(device)).item() * len(index)
+        total += segmentation_loss(logits, held_out.semantics[index].to(device), class_weights).item() * len(index)
     unet.train(was_training)
     return total / max(len(held_out), 1)
 
@@ -602,8 +620,8 @@ def end_to_end_stage(epoch: int, epochs: int, with_unet: bool = True) -> int:
 
 def composite_model(unet: UNet | ClassMapLogits, siamese: SiameseNet, stn: nn.Module, data: TrainingData,
                     loss: Loss, class_reduction: ClassReduction = "sum",
-                    stn_template: StnTemplate = "retrieved") -> CompositeModel:
-    """:class:`CompositeModel` over the anti-aliased scene of the loss.
+                    stn_template: StnTemplate = "retrieved", class_weights: Tensor | None = None) -> CompositeModel:
+    """:class:`CompositeModel` over the anti-aliased scene of the loss (``class_weights``: of its ``L_CE``).
 
     Its templates' homographies are given in the reduced scene's frame
     (``A H_k D⁻¹``), so every homography it composes is too, and its scene is the
@@ -614,7 +632,7 @@ def composite_model(unet: UNet | ClassMapLogits, siamese: SiameseNet, stn: nn.Mo
     # though synthcal.models annotates the argument as UNet.
     return CompositeModel(cast(UNet, unet), siamese, stn, data.scene.clone(), data.templates,
                           data.template_homographies @ data.scene_frame, NUM_CLASSES, WARP_LOSS_NAMES[loss],
-                          class_reduction=class_reduction, stn_template=stn_template)
+                          class_reduction=class_reduction, stn_template=stn_template, class_weights=class_weights)
 
 
 def train_end_to_end(model: CompositeModel, data: TrainingData, with_unet: bool, epochs: int, batch_size: int,

@@ -174,3 +174,17 @@ def test_the_validation_split_goes_only_to_a_fit_that_takes_it():
 
     assert takes_validation(load_estimator("proposed")) and takes_validation(load_estimator("retrieved"))
     assert not takes_validation(load_estimator("oracle-template"))  # takes settings, chooses nothing
+
+
+def test_a_class_weighted_unet_loss_trains_another_unet(splits, settings, tmp_path):
+    options = {**settings, "patience": 1}
+    plain = load_estimator("baseline", settings=options, device="cpu", segmentation="unet", cache_dir=tmp_path)
+    plain.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    weighted = load_estimator("baseline", settings={**options, "unet_class_weights": "inverse-frequency"},
+                              device="cpu", segmentation="unet", cache_dir=tmp_path)
+    weighted.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert weighted.trained_stages[0] == "unet" and weighted.stage_keys["unet"] != plain.stage_keys["unet"]
+    # Its early stopping reads the loss it trains on: the weighted validation cross-entropy.
+    assert weighted.history["unet-validation"] != plain.history["unet-validation"]
+    with pytest.raises(ValueError, match="unet_class_weights"):
+        load_estimator("baseline", settings={**options, "unet_class_weights": "inverse"}, device="cpu")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+import torch.nn.functional as F
 
 from synthcal.generate.camera import homography
 from synthcal.generate.render import render_semantic
@@ -151,3 +152,14 @@ def test_warp_loss_compares_like_with_like(data):
     _, terms = model.training_loss(data["images"], data["semantic"], data["match"], 45,
                                    target_homography=data["homography"][(data["match"] + 1) % 6])
     assert terms["warp"] > 0.01
+
+
+def test_class_weights_weigh_the_segmentation_term(data):
+    weights = torch.tensor([0.2, 1.0, 1.0, 5.0])
+    plain, weighted = _model(data), _model(data, class_weights=weights)
+    logits = plain.unet(data["images"])  # the same initial UNet in both
+    for model, expected in ((plain, F.cross_entropy(logits, data["semantic"])),
+                            (weighted, F.cross_entropy(logits, data["semantic"], weight=weights))):
+        _, parts = model.training_loss(data["images"], data["semantic"], data["match"], 0,
+                                       target_homography=data["homography"][data["match"]])
+        assert parts["ce"] == pytest.approx(expected.item(), rel=1e-5)

@@ -199,3 +199,14 @@ def test_stn_convolutions_read_contiguous_memory(stn_class):
     assert not x.is_contiguous()
     stn(x).sum().backward()
     assert seen == [True]
+
+
+def test_weighted_segmentation_loss_is_the_weighted_mean_of_pixel_losses():
+    torch.manual_seed(0)
+    logits, target = torch.randn(2, 4, 3, 5), torch.randint(0, 4, (2, 3, 5))
+    weights = torch.tensor([0.1, 1.0, 2.0, 4.0])
+    # By hand: each pixel's -log p(true class), weighted by its class, over the sum of the weights.
+    nll = -logits.log_softmax(1).gather(1, target[:, None])[:, 0]
+    expected = (weights[target] * nll).sum() / weights[target].sum()
+    torch.testing.assert_close(segmentation_loss(logits, target, weights), expected)
+    torch.testing.assert_close(segmentation_loss(logits, target), nll.mean())

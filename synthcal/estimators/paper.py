@@ -509,12 +509,11 @@ class PaperEstimator:
         if self.uses_unet:
             # Under patience the UNet keeps its best epoch by validation cross-entropy, as the STN does by L_warp.
             held_out = self._held_out if s.patience is not None else None
-            early = () if held_out is None else (keys["held_out"], s.patience)
             unet_key = unet_cache_key(keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
-                                      s.learning_rate, self.seed, *early)
+                                      s.learning_rate, self.seed, held_out_key=keys.get("held_out"),
+                                      patience=None if held_out is None else s.patience,
+                                      class_weights=s.unet_class_weights)
             weights = self._unet_class_weights(data)
-            if weights is not None:  # another loss, another UNet (plain-loss keys stay as they were)
-                unet_key = digest(unet_key, s.unet_class_weights)
             validate = None if held_out is None else partial(segmentation_validation_loss, held_out=held_out,
                                                               class_weights=weights)
             unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(

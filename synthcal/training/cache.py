@@ -63,14 +63,18 @@ def held_out_cache_key(semantics: np.ndarray, images: np.ndarray | None) -> str:
 
 
 def unet_cache_key(train_key: str, width: int, depth: int, epochs: int, batch_size: int, learning_rate: float,
-                   seed: int, held_out_key: str | None = None, patience: int | None = None) -> str:
+                   seed: int, held_out_key: str | None = None, patience: int | None = None,
+                   class_weights: str | None = None) -> str:
     """Key of the UNet trained on the split ``train_key`` with these settings (:class:`StageCache` ``unet``).
 
     With ``patience``, the UNet kept its best epoch on the validation split ``held_out_key``
-    (:func:`held_out_cache_key`), and both are in the key; without, the key is as it always was.
+    (:func:`held_out_cache_key`), and both are in the key; with ``class_weights`` (the
+    setting ``unet_class_weights``), its loss was weighted. Without either, the key is as it
+    always was.
     """
-    early = () if patience is None else (held_out_key, patience)
-    return digest("unet", train_key, width, depth, epochs, batch_size, learning_rate, seed, *early)
+    key = digest("unet", train_key, width, depth, epochs, batch_size, learning_rate, seed,
+                 *(() if patience is None else (held_out_key, patience)))
+    return key if class_weights is None else digest(key, class_weights)
 
 
 class StageCache:

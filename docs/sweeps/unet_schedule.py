@@ -11,9 +11,10 @@ printed, so the curve shows where the class appears, if it does.
 
 ``--weighted``: one reading to measure beside the paper's plain cross-entropy — each
 class weighted by its inverse pixel frequency in the train maps (normalised to mean 1),
-so the bicycle path's ~3 % of pixels weigh as much as the background's ~68 %. The
-script swaps the loss of :func:`train_unet` for this run only (the toolkit's UNet keeps
-the paper's loss); the validation CE printed stays the plain one.
+so the bicycle path's ~3 % of pixels weigh as much as the background's ~68 %
+(:func:`~synthcal.training.stages.inverse_frequency_weights`, what
+``training.unet_class_weights: inverse-frequency`` uses); the validation CE printed
+stays the plain one.
 
 Run (a store of the sweep, e.g. /work/sweep27/data):
     OMP_NUM_THREADS=1 python docs/sweeps/unet_schedule.py --store DATA/intersection-1.zarr --seed 0 --epochs 30
@@ -30,11 +31,10 @@ import torch
 import torch.nn.functional as F
 
 import synthcal
-import synthcal.training.stages as stages
 from synthcal.eval.segmentation import class_scores, confusion_matrix
 from synthcal.models import UNet
 from synthcal.training import TrainingData, reduce_class_maps, reduce_images
-from synthcal.training.stages import train_unet
+from synthcal.training.stages import inverse_frequency_weights, train_unet
 
 CLASSES = ("background", "road", "terrain", "bicycle path")
 
@@ -75,12 +75,10 @@ def main() -> None:
     work_size = tuple(settings.work_size)
     train = images_and_maps(args.store, "train", args.seed, work_size, settings.max_train)
     held_out = images_and_maps(args.store, "validation", args.seed, work_size, None)
+    weights = None
     if args.weighted:
-        counts = torch.bincount(train.semantics.flatten().long(), minlength=len(CLASSES)).double()
-        weights = (1.0 / counts.clamp(min=1)).float()
-        weights /= weights.mean()
+        weights = inverse_frequency_weights(train.semantics, num_classes=len(CLASSES))
         print("class weights: " + ", ".join(f"{name} {w:.3f}" for name, w in zip(CLASSES, weights, strict=True)))
-        stages.segmentation_loss = lambda logits, target: F.cross_entropy(logits, target.long(), weight=weights)
     torch.manual_seed(args.seed)
     unet = UNet(num_classes=len(CLASSES), width=settings.unet_width, depth=settings.unet_depth)
     print(f"{args.store.name} seed {args.seed}: {len(train)} train, {len(held_out)} validation, lr {args.learning_rate}")
@@ -99,7 +97,7 @@ def main() -> None:
         return loss
 
     train_unet(unet, train, args.epochs, settings.batch_size, args.learning_rate, torch.device("cpu"),
-               seed=args.seed, log=log, validate=scored)
+               seed=args.seed, log=log, validate=scored, class_weights=weights)
 
 
 if __name__ == "__main__":

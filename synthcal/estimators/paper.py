@@ -407,9 +407,8 @@ class PaperEstimator:
         self.trained_stages, self.selection = [], None
         data, keys = self._data(train, dictionary, scene)
         self._held_out = None if validation is None else self._validation_data(validation, data)
-        if validation is not None:
-            keys["held_out"] = held_out_cache_key(np.asarray(validation.semantics),
-                                                  np.asarray(validation.images) if self.uses_unet else None)
+        if validation is not None and self.uses_unet:  # only the UNet's cache key reads it
+            keys["held_out"] = held_out_cache_key(np.asarray(validation.semantics), np.asarray(validation.images))
         grid = (s.learning_rate,) if s.select is None else s.select.learning_rate
         scores: list[float] = []
         kept: tuple[dict[str, Any] | None, dict[str, list[float]], dict[str, str]] = (None, {}, {})

@@ -367,17 +367,32 @@ class PaperEstimator:
         return cast(Tensor, match)
 
     def _log(self, stage: str) -> list[float]:
-        """The per-epoch mean losses of a stage trained by this fit (:attr:`history`)."""
+        """The per-epoch mean losses of a stage trained by this fit (:attr:`history`); ``<stage>-validation``:
+        its per-epoch validation scores, also for a stage loaded from the cache (:meth:`_stage`)."""
         return self.history.setdefault(stage, [])
 
     def _stage(self, name: str, key: str, module: _Module,
                train: Callable[[_Module, list[float]], nn.Module]) -> _Module:
-        """Load ``module``'s weights from the cache, or train it there and record it."""
-        state, trained = self.cache.cached(name, key, lambda: train(module, self._log(name)).state_dict())
+        """Load ``module``'s weights from the cache, or train it there and record it.
+
+        A stage scored on validation (the UNet under ``patience``) keeps its scores beside
+        its weights, saved first, so that a run loading it still knows the epoch kept."""
+        scores = f"{name}-validation"
+
+        def build() -> dict[str, Any]:
+            state = train(module, self._log(name)).state_dict()
+            if self.history.get(scores):
+                self.cache.save(scores, key, torch.tensor(self.history[scores], dtype=torch.float64))
+            return state
+
+        state, trained = self.cache.cached(name, key, build)
         if trained:
             self.trained_stages.append(name)
         else:
             module.load_state_dict(state)
+            kept = self.cache.load(scores, key)
+            if kept is not None:
+                self.history[scores] = kept.tolist()
         return module.to(self.device).eval()
 
     def _embedding(self, siamese_key: str, dictionary_key: str, siamese: SiameseNet, data: TrainingData) -> Tensor:
@@ -428,9 +443,9 @@ class PaperEstimator:
                               "chosen": {"learning_rate": grid[_best(scores)], **self._chosen_epochs()}}
 
     def _chosen_epochs(self) -> dict[str, int]:
-        """``stn_epochs`` the kept STN trained to its best validation epoch (under ``patience``)."""
-        scores = self.history.get("stn-validation")
-        return {"stn_epochs": best_epoch(scores) + 1} if scores else {}
+        """``unet_epochs`` / ``stn_epochs``: the kept UNet's and STN's best validation epochs (under ``patience``)."""
+        return {f"{stage}_epochs": best_epoch(scores) + 1 for stage in ("unet", "stn")
+                if (scores := self.history.get(f"{stage}-validation"))}
 
     def _validation_data(self, validation: SplitLike, data: TrainingData) -> TrainingData:
         """The validation split at the working resolution, beside the train split's dictionary and scene."""

@@ -521,12 +521,12 @@ def training_budget(record: dict[str, Any]) -> str | None:
 def chosen_text(record: dict[str, Any]) -> str | None:
     """What the run's selection chose on the validation split, in words (None: no selection).
 
-    >>> chosen_text({"selection": {"chosen": {"learning_rate": 0.0003, "stn_epochs": 12}}})
-    'lr 0.0003, STN 12 epochs'
+    >>> chosen_text({"selection": {"chosen": {"learning_rate": 0.0003, "unet_epochs": 9, "stn_epochs": 12}}})
+    'lr 0.0003, UNet 9 epochs, STN 12 epochs'
     """
     chosen = (record.get("selection") or {}).get("chosen")
     if not isinstance(chosen, dict):
         return None
-    words = {"learning_rate": "lr {:g}", "stn_epochs": "STN {} epochs"}
+    words = {"learning_rate": "lr {:g}", "unet_epochs": "UNet {} epochs", "stn_epochs": "STN {} epochs"}
     return ", ".join(words.get(key, key + " {}").format(value) for key, value in chosen.items())
 

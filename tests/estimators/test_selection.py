@@ -106,6 +106,13 @@ def test_under_patience_the_unet_keeps_its_best_validation_epoch(splits, setting
     plain.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
     assert plain.trained_stages[0] == "unet" and plain.stage_keys["unet"] != key
     assert "unet-validation" not in plain.history
+    # A run that loads this UNet from the cache still knows its scores, so its selection records the epoch kept.
+    again = load_estimator("baseline", settings={**early, "select": {"learning_rate": [early["learning_rate"]]}},
+                           device="cpu", segmentation="unet", cache_dir=tmp_path)
+    again.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert "unet" not in again.trained_stages and again.stage_keys["unet"] == key
+    assert again.history["unet-validation"] == pytest.approx(scores)
+    assert again.selection["chosen"]["unet_epochs"] == best_epoch(scores) + 1
 
 
 def test_patience_keeps_the_best_validation_epoch(splits, settings):

@@ -80,6 +80,19 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 # 18. (sixth session) the matching-score claim: proposed with MSE matching beside its Top-MSE matching runs,
 #     Top-MSE loss, intersection-1 and -2 (`synthcal table results --paired matching_score=top-mse matching_score=mse`)
 step $S bench --datasets intersection-1 intersection-2 --estimator proposed --matching mse $SEL $COMMON --workers 2
+# ---- 2026-11-26 (seventh session): step 18 done, 13b stopped in flight for the UNet cells below (19) ----
+# 19. (seventh session) the UNet cells again, on main's code: the UNet keeps its best validation epoch under
+#     patience, with 30 epochs as the ceiling; the class-weighted reading, then the paper's plain loss. A later
+#     code than the frozen clone's (another code hash), so in folders of their own, the stage cache shared
+#     (its keys are contents); configuration layers:
+#       unet30w.yaml: profiles: {quick: {training: {unet_epochs: 30, unet_class_weights: inverse-frequency}}}
+#       unet30.yaml:  profiles: {quick: {training: {unet_epochs: 30}}}
+# mkdir -p results-unet2 results-unet2-plain && ln -sfn ../results/cache results-unet2/cache \
+#     && ln -sfn ../results/cache results-unet2-plain/cache
+# U="--datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL --data data --profile quick \
+#    --seeds 0-4 --quiet --yes --workers 2"
+# step $S2 bench --config unet30w.yaml $U --results results-unet2
+# step $S2 bench --config unet30.yaml $U --results results-unet2-plain
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)
 step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
 # 15b. intersections 3-5 with MSE, mixed-4/-5 on both losses

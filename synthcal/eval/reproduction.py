@@ -14,7 +14,8 @@ estimator's table label (``model``). Per cell :func:`report_frame` gives:
 * ``paper``: the paper's figure for the cell, and ``paper_difference``, its
   figure minus its Sha et al. figure for the same cell (``synthcal/data/paper_iou.csv``;
   only for readings of the paper's IoU);
-* what validation chose per seed (``learning_rates``, ``stn_epochs``: the runs'
+* what validation chose per seed (``learning_rates``, ``unet_epochs`` — "–" but with
+  the UNet in the loop under ``patience`` —, ``stn_epochs``: the runs'
   ``selection.chosen``, in seed order) and the median seconds per run;
 * ``verdict`` (:func:`synthcal.eval.statistics.verdict`, re-exported here).
 
@@ -73,7 +74,8 @@ BASELINE = "sha2020"
 CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
 # The CSV's columns after the keys (the Markdown shows them in words).
 NUMBERS = ("n_seeds", "mean", "std", "difference", "t_low", "t_high", "p", "n_pairs", "wins", "paper",
-           "paper_difference", "learning_rates", "stn_epochs", "seconds", "verdict")
+           "paper_difference", "learning_rates", "unet_epochs", "stn_epochs", "seconds", "verdict")
+CHOICES = ("learning_rate", "unet_epochs", "stn_epochs")
 
 
 def _record(results: Path, run_id: str) -> dict[str, Any]:
@@ -85,24 +87,24 @@ def _record(results: Path, run_id: str) -> dict[str, Any]:
 
 
 def run_choices(results: str | Path | None, run_ids: pd.Series) -> pd.DataFrame:
-    """Per run: the learning rate and STN epochs validation chose and the run's seconds, from its record.
+    """Per run: the learning rate and UNet / STN epochs validation chose and the run's seconds, from its record.
 
     Args:
         results: the results folder (None: every value missing).
         run_ids: run ids (``RESULTS/runs/<id>/run.json``).
 
     Returns:
-        DataFrame indexed like ``run_ids`` with ``learning_rate``, ``stn_epochs``
-        and ``seconds`` (NaN where the record lacks them or cannot be read).
+        DataFrame indexed like ``run_ids`` with :data:`CHOICES` and ``seconds``
+        (NaN where the record lacks them or cannot be read).
     """
     rows = []
     for run_id in run_ids:
         record = {} if results is None or pd.isna(run_id) else _record(Path(results), str(run_id))
         chosen = (record.get("selection") or {}).get("chosen") or {}
         seconds = record.get("seconds")
-        rows.append({"learning_rate": chosen.get("learning_rate", np.nan), "stn_epochs": chosen.get("stn_epochs", np.nan),
+        rows.append({**{key: chosen.get(key, np.nan) for key in CHOICES},
                      "seconds": float(seconds) if isinstance(seconds, (int, float)) else np.nan})
-    return pd.DataFrame(rows, index=run_ids.index, columns=["learning_rate", "stn_epochs", "seconds"])
+    return pd.DataFrame(rows, index=run_ids.index, columns=[*CHOICES, "seconds"])
 
 
 def _per_seed(values: pd.Series) -> str:
@@ -163,8 +165,8 @@ def report_frame(frame: pd.DataFrame, value: str = "iou", results: str | Path | 
     with np.errstate(invalid="ignore"):
         cells = grouped[value].agg(n_seeds="count", mean="mean", std=lambda x: x.std(ddof=1)).reset_index()
     cells[["mean", "std"]] *= scale
-    chosen = grouped.agg(learning_rates=("learning_rate", _per_seed), stn_epochs=("stn_epochs", _per_seed),
-                         seconds=("seconds", "median")).reset_index()
+    chosen = grouped.agg(learning_rates=("learning_rate", _per_seed), unet_epochs=("unet_epochs", _per_seed),
+                         stn_epochs=("stn_epochs", _per_seed), seconds=("seconds", "median")).reset_index()
     cells = cells.merge(chosen, on=list(CELL_KEYS), how="left")
     cells = cells.merge(_differences(checked, value, aliases), on=list(PAIR_KEYS), how="left")
     if value in READINGS:
@@ -190,8 +192,8 @@ def _number(value: float, signed: bool = False) -> str:
     return MISSING if pd.isna(value) else f"{value:+.2f}" if signed else f"{value:.2f}"
 
 
-def _row_text(row: Mapping[str, Any]) -> list[str]:
-    """The display cells after the keys."""
+def _row_text(row: Mapping[str, Any], unet: bool) -> list[str]:
+    """The display cells after the keys (``unet``: with the UNet's epochs)."""
     spread = "" if row["n_seeds"] < 2 or pd.isna(row["std"]) else f" ± {row['std']:.2f}"
     interval = MISSING if pd.isna(row["t_low"]) else f"[{row['t_low']:+.2f}, {row['t_high']:+.2f}]"
     p = MISSING if pd.isna(row["p"]) else "< 0.001" if row["p"] < 0.001 else f"{row['p']:.3f}"
@@ -199,12 +201,14 @@ def _row_text(row: Mapping[str, Any]) -> list[str]:
     seconds = MISSING if pd.isna(row["seconds"]) else f"{row['seconds']:.0f}"
     return [str(row["n_seeds"]), _number(row["mean"]) + ("" if pd.isna(row["mean"]) else spread),
             _number(row["difference"], True), interval, p, wins, _number(row["paper"]),
-            _number(row["paper_difference"], True), row["learning_rates"], row["stn_epochs"], seconds, row["verdict"]]
+            _number(row["paper_difference"], True), row["learning_rates"], *([row["unet_epochs"]] if unet else []),
+            row["stn_epochs"], seconds, row["verdict"]]
 
 
 # "> sha2020", not "wins": for a pixel reading a higher value is a worse one
 HEADER = ("n", "mean ± std", f"− {BASELINE}", "95 % CI (t)", "p", f"> {BASELINE}", "paper", f"paper − {BASELINE}",
           "lr (per seed)", "STN epochs (per seed)", "s/run", "verdict")
+UNET_HEADER = "UNet epochs (per seed)"  # before the STN's, shown where a row's runs kept a UNet epoch
 
 
 def report_caption(value: str, constants: Mapping[str, str]) -> str:
@@ -215,7 +219,7 @@ def report_caption(value: str, constants: Mapping[str, str]) -> str:
             f"p: its two-sided test of no difference; > {BASELINE}: seeds where the row's value is higher (for a "
             f"pixel reading: worse). paper: the published "
             f"figure (a UNet's segmentation, the paper's own training; SPEC §7), paper − {BASELINE}: its difference "
-            f"for the same cell. lr, STN epochs: what validation chose, per seed in seed order; s/run: median "
+            f"for the same cell. lr, UNet / STN epochs: what validation chose, per seed in seed order; s/run: median "
             f"seconds of a run. Verdict, from the 95 % CI [lo, hi] and the paper's difference d only: consistent "
             f"with the paper if lo ≤ d ≤ hi or the CI excludes 0 on d's side ('and with no difference' when it also "
             f"holds 0); opposite if it excludes 0 on the "
@@ -237,7 +241,10 @@ def format_report(report: pd.DataFrame, fmt: str = "md") -> str:
         return report.to_csv(index=False)
     shown = [k for k in CELL_KEYS if k in ("dataset", "model") or report[k].nunique() > 1]
     constants = {k: str(report[k].iloc[0]) for k in CELL_KEYS if k not in shown and report[k].iloc[0] != MISSING}
+    unet = bool((report["unet_epochs"] != MISSING).any())
     header = [*shown, *HEADER]
-    body = [[str(row[k]) for k in shown] + _row_text(row) for row in report.to_dict("records")]
+    if unet:
+        header.insert(header.index("STN epochs (per seed)"), UNET_HEADER)
+    body = [[str(row[k]) for k in shown] + _row_text(row, unet) for row in report.to_dict("records")]
     caption = wrap_caption(report_caption(str(report.attrs.get("value", "iou")), constants), fmt)
-    return text_table(header, body, "l" * len(shown) + "r" * (len(HEADER) - 1) + "l", caption, fmt)
+    return text_table(header, body, "l" * len(shown) + "r" * (len(header) - len(shown) - 1) + "l", caption, fmt)

@@ -24,7 +24,7 @@ SHIFTS = {"top-mse": np.array([0.030, 0.025, 0.035, 0.020, 0.028]),  # CI well a
 
 
 def _write_run(results: Path, model: str, loss: str | None, seed: int, iou: float, lr: float | None,
-               seconds: float, dataset: str = "intersection-1") -> None:
+               seconds: float, dataset: str = "intersection-1", unet_epochs: int | None = None) -> None:
     run_id = f"{dataset}_{model}_{loss}_s{seed}"
     folder = results / "runs" / run_id
     folder.mkdir(parents=True)
@@ -32,7 +32,8 @@ def _write_run(results: Path, model: str, loss: str | None, seed: int, iou: floa
            "loss": loss, "matching": "top-mse", "segmentation": "ground-truth", "profile": "quick"}
     record = {"run": run, "id": run_id, "status": "ok", "seconds": seconds,
               "summary": {"iou": iou, "completeness": 1.0, "n_images": 8},
-              "selection": {"chosen": {"learning_rate": lr, "stn_epochs": 10 + seed}} if lr else None}
+              "selection": {"chosen": {"learning_rate": lr, "stn_epochs": 10 + seed,
+                                       **({"unet_epochs": unet_epochs} if unet_epochs else {})}} if lr else None}
     (folder / "run.json").write_text(json.dumps(record))
 
 
@@ -48,7 +49,8 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
     for loss, shift in SHIFTS.items():
         for seed in SEEDS:
             _write_run(tmp_path, "sha2020", loss, seed, BASE[seed], 0.001, 100.0 + seed)
-            _write_run(tmp_path, "proposed", loss, seed, BASE[seed] + shift[seed], 0.0003, 200.0 + 10 * seed)
+            _write_run(tmp_path, "proposed", loss, seed, BASE[seed] + shift[seed], 0.0003, 200.0 + 10 * seed,
+                       unet_epochs=20 + seed if loss == "dice" else None)
     _write_run(tmp_path, "proposed", "top-mse", 0, 0.7, None, 50.0, dataset="intersection-2")  # no sha2020 pair
     assert main(["table", str(tmp_path), "--layout", "report", "--format", "csv"]) == 0
     report = pd.read_csv(io.StringIO(capsys.readouterr().out), keep_default_na=False, na_values=[""])
@@ -68,6 +70,7 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
         assert row["verdict"] == expected[loss]
         assert row["learning_rates"] == "0.0003, 0.0003, 0.0003, 0.0003, 0.0003"
         assert row["stn_epochs"] == "10, 11, 12, 13, 14" and row["seconds"] == pytest.approx(220.0)
+        assert row["unet_epochs"] == ("20, 21, 22, 23, 24" if loss == "dice" else "–")
         assert row["mean"] == pytest.approx(100.0 * np.mean(BASE + shift))
         assert row["std"] == pytest.approx(100.0 * np.std(BASE + shift, ddof=1))
     lone = report[report["dataset"] == "intersection-2"].iloc[0]
@@ -77,6 +80,9 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
     assert main(["table", str(tmp_path), "--layout", "report"]) == 0
     text = capsys.readouterr().out
     assert "| intersection-2 | top-mse | proposed | 1 | 70.00 | – | – | – | – |" in text
+    # The UNet's epochs get a column of their own, before the STN's, once a run kept one.
+    assert "| lr (per seed) | UNet epochs (per seed) | STN epochs (per seed) |" in text
+    assert "| 20, 21, 22, 23, 24 | 10, 11, 12, 13, 14 |" in text
     assert "reproduced |" in text and "| reproduced" not in text
 
 

@@ -201,8 +201,7 @@ def load_split(
     if mixed and split != "dictionary":
         raise SplitError(f"{store}: mixed=True: only the dictionary can be mixed (split {split!r})")
     group = open_store(store)  # once per call: the manifest check costs a stat per shard file
-    if mixed is None:
-        mixed = split == "dictionary" and dictionary_is_mixed(group, store)
+    mixed = split == "dictionary" and dictionary_is_mixed(group, store, mixed)
     scene = scene or read_scene(store, group)
     if mixed:
         templates = read_mixed_dictionary(store, seed)

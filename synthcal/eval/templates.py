@@ -206,8 +206,7 @@ class _Stores:
 
         if str(run["dataset"]).startswith("mixed-"):
             return True
-        mixed = run.get("mixed")
-        return dictionary_is_mixed(self.group(store), Path(store)) if mixed is None else bool(mixed)
+        return dictionary_is_mixed(self.group(store), Path(store), run.get("mixed"))
 
     def dictionary(self, store: str, seed: int, mixed: bool) -> tuple[np.ndarray, np.ndarray]:
         """A seed's dictionary: (K, 3, 3) homographies and (K,) pans, each from the store it was drawn from."""

@@ -66,13 +66,14 @@ def store_spec(group: zarr.Group, path: Path) -> DatasetSpec:
         raise SplitError(f"{path}: attribute 'config' missing or unreadable ({reason})") from None
 
 
-def dictionary_is_mixed(group: zarr.Group, path: Path) -> bool:
-    """Whether a store's ``dictionary`` is, by default, its mixed one: the store draws no dictionary of
-    its own (``dictionary_from``, as ``worldcup2014``, whose templates come from the soccer store).
+def dictionary_is_mixed(group: zarr.Group, path: Path, asked: bool | None = None) -> bool:
+    """Whether a store's ``dictionary`` is read as its mixed one: ``asked`` where given, else (None) the
+    store's default — mixed where the store draws no dictionary of its own (``dictionary_from``, as
+    ``worldcup2014``, whose templates come from the soccer store).
 
     The one rule the loaders, the harness and the template diagnostics share.
     """
-    return not store_spec(group, path).own_dictionary
+    return bool(asked) if asked is not None else not store_spec(group, path).own_dictionary
 
 
 def source_store_path(store: Path, source: str) -> Path:

@@ -184,6 +184,9 @@ def test_dictionary_comes_from_the_soccer_pool(stores):
     assert dictionary.sources == ("soccer",) and len(dictionary) == 12
     assert dictionary_is_mixed(open_store(store), store) and not dictionary_is_mixed(open_store(stores["soccer"]),
                                                                                       stores["soccer"])
+    # what a run asks for wins over the store's default, both ways
+    assert not dictionary_is_mixed(open_store(store), store, False)
+    assert dictionary_is_mixed(open_store(stores["soccer"]), stores["soccer"], True)
     direct = read_samples(open_store(stores["soccer"]), dictionary.indices)
     np.testing.assert_array_equal(dictionary.homographies, direct["homography"])
     with pytest.raises(SplitError, match=r"splits/seed-2/dictionary: dataset has no own dictionary"):

@@ -93,6 +93,8 @@ step $S bench --datasets intersection-1 intersection-2 --estimator proposed --ma
 #    --seeds 0-4 --quiet --yes --workers 2"
 # step $S2 bench --config unet30w.yaml $U --results results-unet2
 # step $S2 bench --config unet30.yaml $U --results results-unet2-plain
+# ---- 2026-11-26 (eighth session): step 19's weighted reading done (5 seeds); its plain reading started beside
+#      the weighted reading's last run (a lock-waiting run left a core idle), then runs alone ----
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)
 step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
 # 15b. intersections 3-5 with MSE, mixed-4/-5 on both losses

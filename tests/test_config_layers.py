@@ -197,3 +197,14 @@ def test_a_store_from_a_layered_file_reads_back(tmp_path, capsys):
     assert main(["split", store, "--seeds", "3", "--train", "4", "--test", "2", "--dictionary", "4"]) == 0
     assert main(["verify", store]) == 0
     capsys.readouterr()
+
+
+@pytest.mark.parametrize(("name", "weights"), [("unet30w.yaml", "inverse-frequency"), ("unet30.yaml", None)])
+def test_the_reports_unet_layers_change_only_the_quick_unet(name, weights):
+    """docs/sweeps' layers behind the report's UNet cells load, and set the quick profile's UNet and nothing else."""
+    layered = load_config(ROOT / "docs" / "sweeps" / name).training("quick")
+    bundled = load_config(ROOT / "datasets.yaml").training("quick")
+    assert (layered.unet_epochs, layered.unet_class_weights) == (30, weights)
+    assert layered.model_dump(exclude={"unet_epochs", "unet_class_weights"}) == \
+        bundled.model_dump(exclude={"unet_epochs", "unet_class_weights"})
+    assert bundled.unet_epochs != 30  # the layer is what sets it

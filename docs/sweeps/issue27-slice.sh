@@ -84,9 +84,8 @@ step $S bench --datasets intersection-1 intersection-2 --estimator proposed --ma
 # 19. (seventh session) the UNet cells again, on main's code: the UNet keeps its best validation epoch under
 #     patience, with 30 epochs as the ceiling; the class-weighted reading, then the paper's plain loss. A later
 #     code than the frozen clone's (another code hash), so in folders of their own, the stage cache shared
-#     (its keys are contents); configuration layers:
-#       unet30w.yaml: profiles: {quick: {training: {unet_epochs: 30, unet_class_weights: inverse-frequency}}}
-#       unet30.yaml:  profiles: {quick: {training: {unet_epochs: 30}}}
+#     (its keys are contents); configuration layers docs/sweeps/unet30w.yaml (30-epoch ceiling, class-weighted)
+#     and docs/sweeps/unet30.yaml (the same, the paper's plain loss), copied beside the results folders
 # mkdir -p results-unet2 results-unet2-plain && ln -sfn ../results/cache results-unet2/cache \
 #     && ln -sfn ../results/cache results-unet2-plain/cache
 # U="--datasets intersection-1 --estimator sha2020 proposed --segmentation unet $SEL --data data --profile quick \

@@ -88,6 +88,7 @@ __all__ = [
     "inverse_frequency_weights",
     "train_unet",
     "segmentation_validation_loss",
+    "segmentation_class_iou",
     "train_siamese",
     "MAP_CACHE_BYTES",
     "map_cache_bytes",
@@ -425,6 +426,30 @@ def segmentation_validation_loss(unet: nn.Module, held_out: TrainingData, batch_
         total += segmentation_loss(logits, held_out.semantics[index].to(device), class_weights).item() * len(index)
     unet.train(was_training)
     return total / max(len(held_out), 1)
+
+
+@torch.no_grad()
+def segmentation_class_iou(unet: nn.Module, held_out: TrainingData, batch_size: int = 256) -> Tensor:
+    """(C,) float64 IoU of each class of ``unet``'s argmax maps on held-out items against their true maps,
+    pixels pooled over items (NaN: a class in neither); the maps kept by :func:`with_unet_maps` are read, not
+    made again; eval mode, then back.
+
+    What a falling cross-entropy hides: a thin class (the bicycle path at 128 × 72) that the UNet never
+    predicts costs the mean loss little (docs/decisions.md, "The UNet's loss").
+    """
+    was_training = unet.training
+    unet.eval()
+    device = next(unet.parameters()).device
+    intersection = torch.zeros(NUM_CLASSES, dtype=torch.float64)
+    union = torch.zeros(NUM_CLASSES, dtype=torch.float64)
+    for index in torch.arange(len(held_out)).split(batch_size):
+        predicted = input_maps(held_out, index, unet, device).argmax(dim=1).cpu()
+        truth = held_out.semantics[index].long()
+        for k in range(NUM_CLASSES):
+            intersection[k] += ((predicted == k) & (truth == k)).sum().item()
+            union[k] += ((predicted == k) | (truth == k)).sum().item()
+    unet.train(was_training)
+    return torch.where(union > 0, intersection / union.clamp(min=1), torch.full_like(union, float("nan")))
 
 
 @torch.no_grad()

@@ -1,21 +1,24 @@
 """Training choices read the validation split only: early stopping, learning-rate selection, the
 shared Siamese per rate, and a harness run whose test split is noise trains exactly the same."""
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 import zarr
 
 from synthcal.config import load_config
 from synthcal.data import load_split, load_splits
 from synthcal.estimators import load_estimator
+from synthcal.estimators.paper import MissedClassWarning
 from synthcal.eval.harness import collect_results, execute_run, expand_runs, read_record, run_folder, table_runs
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.models import UNet
 from synthcal.store import read_split_indices, write_manifest
-from synthcal.training import best_epoch, segmentation_validation_loss
+from synthcal.training import best_epoch, segmentation_class_iou, segmentation_validation_loss
 
 ROOT = Path(__file__).resolve().parents[2]
 RATES = [1e-4, 3e-3]
@@ -98,6 +101,8 @@ def test_under_patience_the_unet_keeps_its_best_validation_epoch(splits, setting
     held_out = estimator._held_out
     kept = estimator._check_fitted()["unet"]
     assert segmentation_validation_loss(kept, held_out) == pytest.approx(min(scores), rel=1e-6)
+    assert estimator.history["unet-class-iou"] == pytest.approx(segmentation_class_iou(kept, held_out).tolist(),
+                                                               nan_ok=True)
     # Its key holds the validation split and patience: a UNet that trained every epoch is another one.
     key = estimator.stage_keys["unet"]
     assert (tmp_path / "unet" / f"{key}.pt").is_file()
@@ -195,3 +200,27 @@ def test_a_class_weighted_unet_loss_trains_another_unet(splits, settings, tmp_pa
     assert weighted.history["unet-validation"] != plain.history["unet-validation"]
     with pytest.raises(ValueError, match="unet_class_weights"):
         load_estimator("baseline", settings={**options, "unet_class_weights": "inverse"}, device="cpu")
+
+
+def test_a_kept_unet_that_misses_a_class_is_warned_of_by_name_and_share(splits, settings, tmp_path, monkeypatch):
+    """The warning's rule on given IoUs (segmentation_class_iou is tested against sklearn on its own)."""
+    import synthcal.estimators.paper as paper
+
+    def fit_with(iou):
+        monkeypatch.setattr(paper, "segmentation_class_iou", lambda unet, held_out: torch.tensor(iou))
+        estimator = load_estimator("baseline", settings={**settings, "patience": 1}, device="cpu",
+                                   segmentation="unet", cache_dir=tmp_path)
+        estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+        return estimator
+
+    with pytest.warns(MissedClassWarning) as caught:
+        estimator = fit_with([0.95, 0.9, 0.9, 0.02])
+    counts = np.bincount(estimator._held_out.semantics.numpy().ravel(), minlength=4)
+    assert counts[3] / counts.sum() >= paper.MISSED_CLASS_SHARE  # the smoke scene's bicycle path is there
+    message = str(caught[0].message)
+    assert f"class 3 (IoU 2.0 %, {100 * counts[3] / counts.sum():.1f} % of the pixels)" in message
+    assert "class 1" not in message and "unet_class_weights: inverse-frequency" in message
+    assert estimator.history["unet-class-iou"] == pytest.approx([0.95, 0.9, 0.9, 0.02])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MissedClassWarning)
+        fit_with([0.95, 0.9, 0.9, 0.5])  # every class learnt: silent

@@ -2,6 +2,7 @@
 straightforward loop that makes them afresh in every batch."""
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
@@ -171,3 +172,32 @@ def test_segmentation_validation_loss_is_the_item_weighted_cross_entropy(data):
     unet.train()
     assert stages.segmentation_validation_loss(unet, data, batch_size=3) == pytest.approx(expected, rel=1e-5)
     assert unet.training  # back in the mode it came in
+
+
+def test_segmentation_class_iou_is_sklearns_jaccard_over_pooled_pixels(data):
+    from sklearn.metrics import jaccard_score
+
+    torch.manual_seed(5)
+    unet = UNet(width=2, depth=1).train()
+    predicted = unet.eval()(data.images.float() / 255.0).argmax(1)
+    unet.train()
+    iou = stages.segmentation_class_iou(unet, data, batch_size=3)
+    expected = jaccard_score(data.semantics.flatten().numpy(), predicted.flatten().numpy(), labels=[0, 1, 2, 3],
+                             average=None)  # every class is in the random true maps
+    np.testing.assert_allclose(iou.numpy(), expected, rtol=1e-12)
+    assert unet.training  # back in the mode it came in
+
+
+def test_a_class_in_neither_map_has_no_iou(data):
+    class Always(torch.nn.Module):  # every pixel class 0; the true maps below hold no class 3
+        def __init__(self) -> None:
+            super().__init__()
+            self.logits = torch.nn.Parameter(torch.tensor([1.0, 0.0, 0.0, 0.0]))
+
+        def forward(self, images: torch.Tensor) -> torch.Tensor:
+            return self.logits.view(1, 4, 1, 1).expand(len(images), 4, *images.shape[2:])
+
+    no_three = dataclasses.replace(data, semantics=data.semantics.clamp(max=2))
+    iou = stages.segmentation_class_iou(Always(), no_three)
+    assert torch.isnan(iou[3]) and iou[1] == 0 and iou[2] == 0
+    assert iou[0] == pytest.approx((no_three.semantics == 0).float().mean().item())

@@ -19,8 +19,9 @@ from pathlib import Path
 import pytest
 
 from synthcal.config import LoadedConfig, load_config
+from synthcal.eval.harness import run_threads
 from synthcal.generate.pipeline import generate_dataset
-from synthcal.utils.dispatch import usable_cores
+from synthcal.utils.dispatch import thread_environment
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,16 +46,15 @@ def share_cores_among_workers() -> None:
     torch starts a thread per core in every process; two workers on two cores then run four
     threads that spin against each other, and the suite is slower than one process (measured:
     192 s with two workers, 166 s in one, 117 s with two workers of one thread each). The same
-    rule as ``bench --workers`` (``synthcal.eval.harness.run_threads``). Set in the environment
+    rule as ``bench --workers`` (:func:`~synthcal.eval.harness.run_threads`). Set in the environment
     before any test imports torch, so that the subprocesses the tests start inherit it; a value
     the user set is kept.
     """
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if "PYTEST_XDIST_WORKER" not in os.environ or workers < 2:
         return
-    threads = str(max(1, usable_cores() // workers))
-    for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
-        os.environ.setdefault(name, threads)
+    for name, value in thread_environment(run_threads(workers)).items():
+        os.environ.setdefault(name, value)
 
 
 class SmokeStores:

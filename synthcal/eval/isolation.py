@@ -60,7 +60,7 @@ from synthcal.estimators import SemanticEstimator, load_estimator, resolve_estim
 from synthcal.eval.runs import AXES, Run, constructor_parameters, prefix_positions
 from synthcal.store import StoreError
 from synthcal.utils.atomic import atomic_write
-from synthcal.utils.dispatch import die_with_parent
+from synthcal.utils.dispatch import die_with_parent, thread_environment
 
 __all__ = ["DEFAULT_TIMEOUT", "RunProcesses", "SweepStopped", "estimate_in_process", "estimate_isolated", "takes_validation",
            "load_run_split", "run_child",
@@ -365,7 +365,7 @@ def _child_environment(threads: int | None) -> dict[str, str]:
     """This process's environment, with the run's thread count for torch and the BLAS libraries."""
     env = dict(os.environ)
     if threads is not None:  # torch reads OMP_NUM_THREADS when it is imported
-        env.update({name: str(threads) for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")})
+        env.update(thread_environment(threads))
     return env
 
 

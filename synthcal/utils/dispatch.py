@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from dask.distributed import Client
 
 __all__ = ["CONNECT_TIMEOUT", "SchedulerUnreachable", "UnguardedScript", "check_main_guarded", "check_scheduler",
-           "dispatch", "worker_pool", "die_with_parent", "usable_cores"]
+           "dispatch", "worker_pool", "die_with_parent", "usable_cores", "thread_environment"]
 
 CONNECT_TIMEOUT = 5.0
 """Seconds to wait for a Dask scheduler to answer (Dask's own default is 30)."""
@@ -53,6 +53,14 @@ def usable_cores() -> int:
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))
     return os.cpu_count() or 1
+
+
+def thread_environment(threads: int) -> dict[str, str]:
+    """The variables that set the thread count of torch and the BLAS libraries, all to ``threads``.
+
+    Read when those libraries are imported: set them before the import, or in a child's environment.
+    """
+    return {name: str(threads) for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
 
 
 class UnguardedScript(RuntimeError):

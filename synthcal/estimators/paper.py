@@ -92,7 +92,8 @@ at a rate are shared by all the runs (models, losses) that try it.
 With the UNet in the loop, the validation maps also give the UNet's IoU per class
 (``history["unet-class-iou"]``, :func:`synthcal.training.segmentation_class_iou`);
 where the kept UNet all but misses a class (:data:`MISSED_CLASS_IOU`, on at least
-:data:`MISSED_CLASS_SHARE` of the pixels) ``fit`` warns (:class:`MissedClassWarning`):
+:data:`MISSED_CLASS_SHARE` of the pixels) ``fit`` records it (``history["unet-missed-classes"]``,
+the class ids; ``[]``: none) and warns (:class:`MissedClassWarning`):
 a falling cross-entropy does not show it, and every later stage then works without
 that class (docs/decisions.md, "The UNet's loss").
 ``seed``
@@ -295,7 +296,7 @@ class PaperEstimator:
         self.progress = progress
         self.label = model_label(self.model, self.settings.batch_norm)
         self.trained_stages: list[str] = []
-        self.history: dict[str, list[float]] = {}
+        self.history: dict[str, list[float] | list[int]] = {}
         # Cache keys of the kept fit's shared stages (``unet``, ``siamese``): the harness records them,
         # so a run's UNet is found again by the key it had (synthcal.segmentation_quality).
         self.stage_keys: dict[str, str] = {}
@@ -386,7 +387,7 @@ class PaperEstimator:
     def _log(self, stage: str) -> list[float]:
         """The per-epoch mean losses of a stage trained by this fit (:attr:`history`); ``<stage>-validation``:
         its per-epoch validation scores, also for a stage loaded from the cache (:meth:`_stage`)."""
-        return self.history.setdefault(stage, [])
+        return cast(list[float], self.history.setdefault(stage, []))
 
     def _stage(self, name: str, key: str, module: _Module,
                train: Callable[[_Module, list[float]], nn.Module]) -> _Module:
@@ -443,7 +444,7 @@ class PaperEstimator:
             keys["held_out"] = held_out_cache_key(np.asarray(validation.semantics), np.asarray(validation.images))
         grid = (s.learning_rate,) if s.select is None else s.select.learning_rate
         scores: list[float] = []
-        kept: tuple[dict[str, Any] | None, dict[str, list[float]], dict[str, str]] = (None, {}, {})
+        kept: tuple[dict[str, Any] | None, dict[str, list[float] | list[int]], dict[str, str]] = (None, {}, {})
         try:
             for rate in grid:
                 self.settings, self.history, self.stage_keys = s.model_copy(update={"learning_rate": rate}), {}, {}
@@ -469,8 +470,9 @@ class PaperEstimator:
             return
         counts = torch.bincount(self._held_out.semantics.flatten().long(), minlength=NUM_CLASSES)[:NUM_CLASSES]
         share = (counts / counts.sum().clamp(min=1)).tolist()
-        missed = [f"class {k} (IoU {100 * iou[k]:.1f} %, {100 * share[k]:.1f} % of the pixels)"
-                  for k in range(NUM_CLASSES) if share[k] >= MISSED_CLASS_SHARE and iou[k] < MISSED_CLASS_IOU]
+        classes = [k for k in range(NUM_CLASSES) if share[k] >= MISSED_CLASS_SHARE and iou[k] < MISSED_CLASS_IOU]
+        self.history["unet-missed-classes"] = classes  # the run's record keeps it: the report flags the run
+        missed = [f"class {k} (IoU {100 * iou[k]:.1f} %, {100 * share[k]:.1f} % of the pixels)" for k in classes]
         if missed:
             warnings.warn(f"the UNet (seed {self.seed}, learning rate {learning_rate:g}, at most "
                           f"{self.settings.unet_epochs} epochs) all but misses {', '.join(missed)} on the validation "

@@ -17,6 +17,12 @@ estimator's table label (``model``). Per cell :func:`report_frame` gives:
 * what validation chose per seed (``learning_rates``, ``unet_epochs`` — "–" but with
   the UNet in the loop under ``patience`` —, ``stn_epochs``: the runs'
   ``selection.chosen``, in seed order) and the median seconds per run;
+* ``unet_missed``, per seed, the classes the run's kept UNet all but missed on the
+  validation split (its record's ``history["unet-missed-classes"]``,
+  :class:`synthcal.estimators.paper.MissedClassWarning`): ``3`` or ``1+3``, ``none``,
+  or "–" where the run recorded nothing (true maps, no validation split, older code).
+  A cell whose UNet lost a class measures a different pipeline from one whose UNet
+  did not; the Markdown shows the column wherever a run missed one;
 * ``verdict`` (:func:`synthcal.eval.statistics.verdict`, re-exported here).
 
 Verdict rules
@@ -74,7 +80,7 @@ BASELINE = "sha2020"
 CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
 # The CSV's columns after the keys (the Markdown shows them in words).
 NUMBERS = ("n_seeds", "mean", "std", "difference", "t_low", "t_high", "p", "n_pairs", "wins", "paper",
-           "paper_difference", "learning_rates", "unet_epochs", "stn_epochs", "seconds", "verdict")
+           "paper_difference", "learning_rates", "unet_epochs", "unet_missed", "stn_epochs", "seconds", "verdict")
 CHOICES = ("learning_rate", "unet_epochs", "stn_epochs")
 
 
@@ -86,32 +92,46 @@ def _record(results: Path, run_id: str) -> dict[str, Any]:
     return record if isinstance(record, dict) else {}
 
 
+def _missed_classes(record: Mapping[str, Any]) -> str | float:
+    """The classes the run's kept UNet all but missed: ``"3"``, ``"1+3"``, ``"none"`` (NaN: not recorded)."""
+    classes = (record.get("history") or {}).get("unet-missed-classes")
+    if not isinstance(classes, list):
+        return np.nan
+    return "+".join(str(k) for k in classes) or "none"
+
+
 def run_choices(results: str | Path | None, run_ids: pd.Series) -> pd.DataFrame:
-    """Per run: the learning rate and UNet / STN epochs validation chose and the run's seconds, from its record.
+    """Per run: what validation chose, the classes its UNet missed and its seconds, from its record.
 
     Args:
         results: the results folder (None: every value missing).
         run_ids: run ids (``RESULTS/runs/<id>/run.json``).
 
     Returns:
-        DataFrame indexed like ``run_ids`` with :data:`CHOICES` and ``seconds``
-        (NaN where the record lacks them or cannot be read).
+        DataFrame indexed like ``run_ids`` with :data:`CHOICES`, ``unet_missed``
+        (:func:`report_frame`) and ``seconds`` (NaN where the record lacks them or
+        cannot be read).
     """
     rows = []
     for run_id in run_ids:
         record = {} if results is None or pd.isna(run_id) else _record(Path(results), str(run_id))
         chosen = (record.get("selection") or {}).get("chosen") or {}
         seconds = record.get("seconds")
-        rows.append({**{key: chosen.get(key, np.nan) for key in CHOICES},
+        rows.append({**{key: chosen.get(key, np.nan) for key in CHOICES}, "unet_missed": _missed_classes(record),
                      "seconds": float(seconds) if isinstance(seconds, (int, float)) else np.nan})
-    return pd.DataFrame(rows, index=run_ids.index, columns=[*CHOICES, "seconds"])
+    return pd.DataFrame(rows, index=run_ids.index, columns=[*CHOICES, "unet_missed", "seconds"])
 
 
 def _per_seed(values: pd.Series) -> str:
     """Values in seed order as ``a, b, …`` ("–" for none recorded)."""
     if values.isna().all():
         return MISSING
-    return ", ".join(MISSING if pd.isna(v) else f"{v:g}" for v in values)
+    return ", ".join(MISSING if pd.isna(v) else v if isinstance(v, str) else f"{v:g}" for v in values)
+
+
+def _misses_a_class(per_seed: str) -> bool:
+    """Whether a cell's ``unet_missed`` names a class on some seed."""
+    return any(value not in (MISSING, "none") for value in per_seed.split(", "))
 
 
 def _paper_figures(cells: pd.DataFrame, aliases: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray]:
@@ -166,7 +186,8 @@ def report_frame(frame: pd.DataFrame, value: str = "iou", results: str | Path | 
         cells = grouped[value].agg(n_seeds="count", mean="mean", std=lambda x: x.std(ddof=1)).reset_index()
     cells[["mean", "std"]] *= scale
     chosen = grouped.agg(learning_rates=("learning_rate", _per_seed), unet_epochs=("unet_epochs", _per_seed),
-                         stn_epochs=("stn_epochs", _per_seed), seconds=("seconds", "median")).reset_index()
+                         unet_missed=("unet_missed", _per_seed), stn_epochs=("stn_epochs", _per_seed),
+                         seconds=("seconds", "median")).reset_index()
     cells = cells.merge(chosen, on=list(CELL_KEYS), how="left")
     cells = cells.merge(_differences(checked, value, aliases), on=list(PAIR_KEYS), how="left")
     if value in READINGS:
@@ -192,8 +213,8 @@ def _number(value: float, signed: bool = False) -> str:
     return MISSING if pd.isna(value) else f"{value:+.2f}" if signed else f"{value:.2f}"
 
 
-def _row_text(row: Mapping[str, Any], unet: bool) -> list[str]:
-    """The display cells after the keys (``unet``: with the UNet's epochs)."""
+def _row_text(row: Mapping[str, Any], unet: bool, missed: bool) -> list[str]:
+    """The display cells after the keys (``unet``: with the UNet's epochs; ``missed``: its missed classes)."""
     spread = "" if row["n_seeds"] < 2 or pd.isna(row["std"]) else f" ± {row['std']:.2f}"
     interval = MISSING if pd.isna(row["t_low"]) else f"[{row['t_low']:+.2f}, {row['t_high']:+.2f}]"
     p = MISSING if pd.isna(row["p"]) else "< 0.001" if row["p"] < 0.001 else f"{row['p']:.3f}"
@@ -202,13 +223,14 @@ def _row_text(row: Mapping[str, Any], unet: bool) -> list[str]:
     return [str(row["n_seeds"]), _number(row["mean"]) + ("" if pd.isna(row["mean"]) else spread),
             _number(row["difference"], True), interval, p, wins, _number(row["paper"]),
             _number(row["paper_difference"], True), row["learning_rates"], *([row["unet_epochs"]] if unet else []),
-            row["stn_epochs"], seconds, row["verdict"]]
+            *([row["unet_missed"]] if missed else []), row["stn_epochs"], seconds, row["verdict"]]
 
 
 # "> sha2020", not "wins": for a pixel reading a higher value is a worse one
 HEADER = ("n", "mean ± std", f"− {BASELINE}", "95 % CI (t)", "p", f"> {BASELINE}", "paper", f"paper − {BASELINE}",
           "lr (per seed)", "STN epochs (per seed)", "s/run", "verdict")
 UNET_HEADER = "UNet epochs (per seed)"  # before the STN's, shown where a row's runs kept a UNet epoch
+MISSED_HEADER = "UNet missed (per seed)"  # after it, shown where a row's UNet all but missed a class
 
 
 def report_caption(value: str, constants: Mapping[str, str]) -> str:
@@ -220,7 +242,9 @@ def report_caption(value: str, constants: Mapping[str, str]) -> str:
             f"pixel reading: worse). paper: the published "
             f"figure (a UNet's segmentation, the paper's own training; SPEC §7), paper − {BASELINE}: its difference "
             f"for the same cell. lr, UNet / STN epochs: what validation chose, per seed in seed order; s/run: median "
-            f"seconds of a run. Verdict, from the 95 % CI [lo, hi] and the paper's difference d only: consistent "
+            f"seconds of a run. UNet missed: the classes a run's UNet all but missed on the validation split, as it "
+            f"warned (none; – not recorded), shown where a run missed one. "
+            f"Verdict, from the 95 % CI [lo, hi] and the paper's difference d only: consistent "
             f"with the paper if lo ≤ d ≤ hi or the CI excludes 0 on d's side ('and with no difference' when it also "
             f"holds 0); opposite if it excludes 0 on the "
             f"other side; not reproduced otherwise (the CI holds 0 but not d); – without a claim or a CI.")
@@ -242,9 +266,10 @@ def format_report(report: pd.DataFrame, fmt: str = "md") -> str:
     shown = [k for k in CELL_KEYS if k in ("dataset", "model") or report[k].nunique() > 1]
     constants = {k: str(report[k].iloc[0]) for k in CELL_KEYS if k not in shown and report[k].iloc[0] != MISSING}
     unet = bool((report["unet_epochs"] != MISSING).any())
+    missed = bool(report["unet_missed"].map(_misses_a_class).any())
     header = [*shown, *HEADER]
-    if unet:
-        header.insert(header.index("STN epochs (per seed)"), UNET_HEADER)
-    body = [[str(row[k]) for k in shown] + _row_text(row, unet) for row in report.to_dict("records")]
+    at = header.index("STN epochs (per seed)")
+    header[at:at] = [*([UNET_HEADER] if unet else []), *([MISSED_HEADER] if missed else [])]
+    body = [[str(row[k]) for k in shown] + _row_text(row, unet, missed) for row in report.to_dict("records")]
     caption = wrap_caption(report_caption(str(report.attrs.get("value", "iou")), constants), fmt)
     return text_table(header, body, "l" * len(shown) + "r" * (len(header) - len(shown) - 1) + "l", caption, fmt)

@@ -221,6 +221,8 @@ def test_a_kept_unet_that_misses_a_class_is_warned_of_by_name_and_share(splits, 
     assert f"class 3 (IoU 2.0 %, {100 * counts[3] / counts.sum():.1f} % of the pixels)" in message
     assert "class 1" not in message and "unet_class_weights: inverse-frequency" in message
     assert estimator.history["unet-class-iou"] == pytest.approx([0.95, 0.9, 0.9, 0.02])
+    assert estimator.history["unet-missed-classes"] == [3]  # what the report flags the run by
     with warnings.catch_warnings():
         warnings.simplefilter("error", MissedClassWarning)
-        fit_with([0.95, 0.9, 0.9, 0.5])  # every class learnt: silent
+        learnt = fit_with([0.95, 0.9, 0.9, 0.5])  # every class learnt: silent
+    assert learnt.history["unet-missed-classes"] == []

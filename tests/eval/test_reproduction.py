@@ -18,13 +18,16 @@ SEEDS = range(5)
 # Per loss: sha2020's per-seed IoU and proposed − sha2020 per seed (fractions), chosen so that the three
 # verdicts come out (the paper's proposed − sha2020 is positive in each cell).
 BASE = np.array([0.60, 0.62, 0.58, 0.61, 0.63])
+# The classes the proposed Dice runs' UNets missed, per seed (None: a run that recorded nothing).
+MISSED = [[], [3], [], [1, 3], None]
 SHIFTS = {"top-mse": np.array([0.030, 0.025, 0.035, 0.020, 0.028]),  # CI well above 0
           "mse": np.array([-0.030, -0.025, -0.035, -0.020, -0.028]),  # CI well below 0
           "dice": np.array([0.004, -0.006, 0.002, -0.003, 0.001])}  # CI around 0, far from the paper's
 
 
 def _write_run(results: Path, model: str, loss: str | None, seed: int, iou: float, lr: float | None,
-               seconds: float, dataset: str = "intersection-1", unet_epochs: int | None = None) -> None:
+               seconds: float, dataset: str = "intersection-1", unet_epochs: int | None = None,
+               missed: list[int] | None = None) -> None:
     run_id = f"{dataset}_{model}_{loss}_s{seed}"
     folder = results / "runs" / run_id
     folder.mkdir(parents=True)
@@ -33,7 +36,8 @@ def _write_run(results: Path, model: str, loss: str | None, seed: int, iou: floa
     record = {"run": run, "id": run_id, "status": "ok", "seconds": seconds,
               "summary": {"iou": iou, "completeness": 1.0, "n_images": 8},
               "selection": {"chosen": {"learning_rate": lr, "stn_epochs": 10 + seed,
-                                       **({"unet_epochs": unet_epochs} if unet_epochs else {})}} if lr else None}
+                                       **({"unet_epochs": unet_epochs} if unet_epochs else {})}} if lr else None,
+              **({"history": {"unet-missed-classes": missed}} if missed is not None else {})}
     (folder / "run.json").write_text(json.dumps(record))
 
 
@@ -50,7 +54,8 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
         for seed in SEEDS:
             _write_run(tmp_path, "sha2020", loss, seed, BASE[seed], 0.001, 100.0 + seed)
             _write_run(tmp_path, "proposed", loss, seed, BASE[seed] + shift[seed], 0.0003, 200.0 + 10 * seed,
-                       unet_epochs=20 + seed if loss == "dice" else None)
+                       unet_epochs=20 + seed if loss == "dice" else None,
+                       missed=MISSED[seed] if loss == "dice" else None)
     _write_run(tmp_path, "proposed", "top-mse", 0, 0.7, None, 50.0, dataset="intersection-2")  # no sha2020 pair
     assert main(["table", str(tmp_path), "--layout", "report", "--format", "csv"]) == 0
     report = pd.read_csv(io.StringIO(capsys.readouterr().out), keep_default_na=False, na_values=[""])
@@ -71,6 +76,7 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
         assert row["learning_rates"] == "0.0003, 0.0003, 0.0003, 0.0003, 0.0003"
         assert row["stn_epochs"] == "10, 11, 12, 13, 14" and row["seconds"] == pytest.approx(220.0)
         assert row["unet_epochs"] == ("20, 21, 22, 23, 24" if loss == "dice" else "–")
+        assert row["unet_missed"] == ("none, 3, none, 1+3, –" if loss == "dice" else "–")
         assert row["mean"] == pytest.approx(100.0 * np.mean(BASE + shift))
         assert row["std"] == pytest.approx(100.0 * np.std(BASE + shift, ddof=1))
     lone = report[report["dataset"] == "intersection-2"].iloc[0]
@@ -81,9 +87,21 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
     text = capsys.readouterr().out
     assert "| intersection-2 | top-mse | proposed | 1 | 70.00 | – | – | – | – |" in text
     # The UNet's epochs get a column of their own, before the STN's, once a run kept one.
-    assert "| lr (per seed) | UNet epochs (per seed) | STN epochs (per seed) |" in text
-    assert "| 20, 21, 22, 23, 24 | 10, 11, 12, 13, 14 |" in text
+    # ... and the classes its UNet missed one after, once a run missed one.
+    assert "| lr (per seed) | UNet epochs (per seed) | UNet missed (per seed) | STN epochs (per seed) |" in text
+    assert "| 20, 21, 22, 23, 24 | none, 3, none, 1+3, – | 10, 11, 12, 13, 14 |" in text
     assert "reproduced |" in text and "| reproduced" not in text
+
+
+def test_report_shows_no_missed_class_column_where_every_unet_learnt_every_class(tmp_path, capsys):
+    for seed in SEEDS[:3]:
+        for model, iou in (("sha2020", BASE[seed]), ("proposed", BASE[seed] + 0.01)):
+            _write_run(tmp_path, model, "top-mse", seed, iou, 0.001, 100.0, unet_epochs=9, missed=[])
+    assert main(["table", str(tmp_path), "--layout", "report", "--format", "csv"]) == 0
+    report = pd.read_csv(io.StringIO(capsys.readouterr().out), keep_default_na=False, na_values=[""])
+    assert set(report["unet_missed"]) == {"none, none, none"}
+    assert main(["table", str(tmp_path), "--layout", "report"]) == 0
+    assert "UNet missed" not in capsys.readouterr().out.split("\n\n")[0]  # the table, not its caption
 
 
 @pytest.mark.parametrize("low, high, paper, expected", [

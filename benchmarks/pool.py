@@ -35,7 +35,7 @@ from synthcal.models import SiameseNet, nearest_embeddings, one_hot_maps
 from synthcal.store import open_store
 from synthcal.store.splits import SplitError, read_split_indices
 from synthcal.training import embed_templates, reduce_class_map_batches
-from synthcal.training.stages import TrainingData
+from synthcal.training.examples import TrainingData
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from timing import best_of  # noqa: E402

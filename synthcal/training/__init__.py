@@ -2,6 +2,8 @@
 
 * :mod:`synthcal.training.resolution` — the networks' working resolution;
 * :mod:`synthcal.training.cache` — trained stages on disk, built once;
+* :mod:`synthcal.training.examples` — what the stages read: a split at the working
+  resolution, its maps and the STN's examples;
 * :mod:`synthcal.training.stages` — UNet, Siamese, STN and end-to-end training.
 
 Imports of synthcal only :mod:`synthcal.models`, :mod:`synthcal.data`, :mod:`synthcal.store`,
@@ -9,6 +11,14 @@ Imports of synthcal only :mod:`synthcal.models`, :mod:`synthcal.data`, :mod:`syn
 """
 
 from synthcal.training.cache import StageCache, digest, held_out_cache_key, train_cache_key, unet_cache_key
+from synthcal.training.examples import (
+    ClassMapLogits,
+    StnExamples,
+    TrainingData,
+    input_maps,
+    reduce_scene,
+    with_unet_maps,
+)
 from synthcal.training.resolution import (
     NUM_CLASSES,
     reduce_class_map_batches,
@@ -20,17 +30,12 @@ from synthcal.training.stages import (
     MATCHING_SCORES,
     PAPER_END_TO_END_EPOCHS,
     WARP_LOSS_NAMES,
-    ClassMapLogits,
-    StnExamples,
-    TrainingData,
     best_epoch,
     composite_model,
     embed_templates,
     end_to_end_stage,
     estimate,
-    input_maps,
     inverse_frequency_weights,
-    reduce_scene,
     retrieve_templates,
     segmentation_class_iou,
     segmentation_validation_loss,
@@ -40,7 +45,6 @@ from synthcal.training.stages import (
     train_stn,
     train_unet,
     validation_loss,
-    with_unet_maps,
 )
 
 __all__ = [

@@ -19,7 +19,7 @@ from synthcal.models import (
     top_mse_loss,
     warp_semantic,
 )
-from synthcal.training import TrainingData, reduce_scene, stages, train_siamese, train_stn
+from synthcal.training import TrainingData, examples, reduce_scene, stages, train_siamese, train_stn
 
 SIZE = (32, 18)
 SEED, EPOCHS, BATCH, LR = 3, 3, 4, 1e-3  # 10 items: batches of 4, 4 and 2
@@ -84,11 +84,11 @@ def trained(stn: torch.nn.Module, data: TrainingData, templates: torch.Tensor, u
     return log, stn.state_dict()
 
 
-@pytest.mark.parametrize("cache_bytes", [stages.MAP_CACHE_BYTES, 0], ids=["once-per-fit", "per-batch"])
+@pytest.mark.parametrize("cache_bytes", [examples.MAP_CACHE_BYTES, 0], ids=["once-per-fit", "per-batch"])
 @pytest.mark.parametrize("network", [BaselineSTN, ProposedSTN])
 def test_stn_training_equals_the_plain_loop_on_true_maps(data, network, cache_bytes, monkeypatch):
-    monkeypatch.setattr(stages, "MAP_CACHE_BYTES", cache_bytes)
-    assert (stages.StnExamples(data, data.match, None, torch.device("cpu")).cached is None) == (cache_bytes == 0)
+    monkeypatch.setattr(examples, "MAP_CACHE_BYTES", cache_bytes)
+    assert (examples.StnExamples(data, data.match, None, torch.device("cpu")).cached is None) == (cache_bytes == 0)
     torch.manual_seed(0)
     initial = network(8, image_size=SIZE, width=4)
     templates = torch.roll(data.match, 1)  # not the ground truth: the chosen ones must be the ones read
@@ -111,9 +111,9 @@ def test_stn_training_on_frozen_unet_maps_matches_the_plain_loop(data):
 
 
 def test_cached_examples_are_the_batches_made_afresh(data):
-    examples = stages.StnExamples(data, data.match, None, torch.device("cpu"))
+    made = examples.StnExamples(data, data.match, None, torch.device("cpu"))
     index = torch.tensor([7, 2, 2, 9])
-    inputs, targets = examples.batch(index)
+    inputs, targets = made.batch(index)
     assert inputs.dtype == targets.dtype == torch.float32
     assert (targets.sum(1) > 0.5).float().mean() > 0.5  # the cameras see the scene
     torch.testing.assert_close(inputs, torch.cat([one_hot(data.semantics[index]),
@@ -125,8 +125,8 @@ def test_cached_examples_are_the_batches_made_afresh(data):
 def test_examples_are_kept_in_half_the_free_memory_of_a_gpu(monkeypatch):
     # No GPU needed: the rule reads only what the device reports free.
     monkeypatch.setattr(torch.cuda, "mem_get_info", lambda device=None: (10 * 2**30, 80 * 2**30))
-    assert stages.map_cache_bytes(torch.device("cuda")) == 5 * 2**30
-    assert stages.map_cache_bytes(torch.device("cpu")) == stages.MAP_CACHE_BYTES
+    assert examples.map_cache_bytes(torch.device("cuda")) == 5 * 2**30
+    assert examples.map_cache_bytes(torch.device("cpu")) == examples.MAP_CACHE_BYTES
 
 
 def test_siamese_on_frozen_unet_maps_kept_matches_the_unet_rerun_per_batch(data, monkeypatch):
@@ -134,9 +134,9 @@ def test_siamese_on_frozen_unet_maps_kept_matches_the_unet_rerun_per_batch(data,
     unet = UNet(width=2, depth=1).eval()
     initial = SiameseNet(4, embedding_dim=8, width=4)
     fits = {}
-    for kept, cap in (("kept", stages.MAP_CACHE_BYTES), ("per-batch", 0)):
-        monkeypatch.setattr(stages, "MAP_CACHE_BYTES", cap)
-        assert (stages.with_unet_maps(data, unet, torch.device("cpu")).unet_maps is None) == (cap == 0)
+    for kept, cap in (("kept", examples.MAP_CACHE_BYTES), ("per-batch", 0)):
+        monkeypatch.setattr(examples, "MAP_CACHE_BYTES", cap)
+        assert (examples.with_unet_maps(data, unet, torch.device("cpu")).unet_maps is None) == (cap == 0)
         log: list[float] = []
         siamese = train_siamese(copy.deepcopy(initial), data, unet, EPOCHS, BATCH, LR, torch.device("cpu"),
                                 seed=SEED, log=log)

@@ -590,12 +590,21 @@ def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pap
         raise _UserError(str(error)) from None
 
 
-def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str, results: Path) -> None:
-    """Print :func:`synthcal.eval.report.paired_report`."""
+def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str, results: Path,
+                  against: Path | None = None) -> None:
+    """Print :func:`synthcal.eval.report.paired_report` (``against``: side B's results folder)."""
+    from synthcal.eval.harness import collect_results
     from synthcal.eval.report import ReportError, paired_report
 
+    other = None
+    if against is not None:
+        if not against.is_dir():
+            raise _UserError(f"--against {against}: no such results folder")
+        other = collect_results(against)
+        if other.empty:
+            raise _UserError(f"--against {against}: no finished runs")
     try:
-        text = paired_report(frame, sides, fmt, metric, results)
+        text = paired_report(frame, sides, fmt, metric, results, other, against)
     except ReportError as error:
         raise _UserError(f"--paired: {error}") from None
     print(text)
@@ -692,8 +701,11 @@ def _cmd_table(args: argparse.Namespace) -> None:
     frame = collect_results(args.results)
     if frame.empty:
         raise _UserError(f"{args.results}: no finished runs")
+    if args.against and not args.paired:
+        raise _UserError("--against needs --paired A B: A is read from RESULTS, B from the other folder (e.g. "
+                         "--paired segmentation=unet segmentation=unet)")
     if args.paired:
-        _print_paired(frame, args.paired, args.format, args.metric, args.results)
+        _print_paired(frame, args.paired, args.format, args.metric, args.results, args.against)
     else:
         _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric, args.results)
     # Failed runs count in the means (IoU 0, completeness 0); say which and why, off stdout for CSV.
@@ -1125,6 +1137,12 @@ def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                         "seeds of the per-seed difference A − B of two models trained on the same split, the "
                         "seeds where A > B, and the paper's A − B; A, B: models (proposed sha2020) or KEY=VALUE "
                         "(loss=top-mse loss=mse)")
+    p.add_argument("--against", type=Path, default=None, metavar="OTHER",
+                   help="with --paired: read B's runs from another results folder (A's from RESULTS) and pair "
+                        "them with A's of the same dataset, seed and other settings — a change kept in a folder of "
+                        "its own, e.g. `synthcal table results-weighted --against results-plain --paired "
+                        "segmentation=unet segmentation=unet`, or true maps against a UNet's, `--paired "
+                        "segmentation=ground-truth segmentation=unet`")
     p.set_defaults(func=_cmd_table)
 
 

@@ -277,25 +277,68 @@ def paired_sides(frame: pd.DataFrame, sides: Sequence[str]) -> tuple[str, str, s
     return keys[0], values[0], values[1]
 
 
+def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: Path, other: pd.DataFrame,
+                    other_results: Path) -> tuple[pd.DataFrame, str, str, str, Callable[[str], pd.Series | None]]:
+    """Side A's runs from ``results``, side B's from ``other_results``, as one frame in which the compared
+    key's values name their folder (``unet (results-unet2)``), so that the same cell in both folders pairs.
+
+    Returns:
+        ``(frame, key, a, b, per_image)``: run ids prefixed ``a:`` / ``b:`` (plain names hold no ``:``),
+        which ``per_image`` reads from the side's folder.
+    """
+    try:
+        key, a, _ = paired_sides(frame, [sides[0], sides[0]])
+    except ReportError as error:
+        raise ReportError(f"A, in {results}: {error}") from None
+    try:
+        other_key, b, _ = paired_sides(other, [sides[1], sides[1]])
+    except ReportError as error:
+        raise ReportError(f"B, in {other_results}: {error}") from None
+    if key != other_key:
+        raise ReportError(f"both sides must vary the same key (value {' '.join(sides)!r})")
+    names = (results.name, other_results.name) if results.name != other_results.name else (results, other_results)
+    labels = (f"{a} ({names[0]})", f"{b} ({names[1]})")
+    parts = [part.loc[part[key] == value].assign(**{key: label, "run_id": prefix + part["run_id"].astype(str)})
+             for part, value, label, prefix in ((frame, a, labels[0], "a:"), (other, b, labels[1], "b:"))]
+    readers = {"a": per_image_reader(results, metric), "b": per_image_reader(other_results, metric)}
+    return pd.concat(parts, ignore_index=True), key, *labels, lambda run_id: readers[run_id[0]](run_id[2:])
+
+
 def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str,
-                  results: str | Path | None = None) -> str:
-    """``table --paired A B``: per-seed differences A − B per cell with their confidence intervals, beside
-    the paper's difference.
+                  results: str | Path | None = None, other: pd.DataFrame | None = None,
+                  other_results: str | Path | None = None) -> str:
+    """``table --paired A B [--against OTHER]``: per-seed differences A − B per cell with their confidence
+    intervals, beside the paper's difference.
 
     Args:
         results: the results folder, whose ``metrics.csv`` files give the bootstrap
             interval; None: no bootstrap interval.
+        other, other_results: ``--against``: side B's runs and their folder (a change of
+            settings or code kept in a folder of its own); side A's are read from ``frame``.
+            Runs pair on every other key and the seed; the compared key's values name
+            their folder, and there is no paper figure.
 
     Raises:
         ReportError: as :func:`paired_sides`, or no pairs to compare.
     """
     frame = one_label(frame)
-    key, a, b = paired_sides(frame, sides)
+    if other is not None and results is not None and other_results is not None:
+        frame, key, a, b, across = _across_folders(frame, sides, metric, Path(results), one_label(other),
+                                                     Path(other_results))
+    else:
+        key, a, b = paired_sides(frame, sides)
+        across = None
     try:
         # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
         # not over the key compared (its one value would be paired with itself).
         frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
-        per_image = None if results is None else per_image_reader(results, metric)
-        return format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES, per_image=per_image)
+        per_image = across or (None if results is None else per_image_reader(results, metric))
+        text = format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES, per_image=per_image)
+        if across is None or fmt == "csv":
+            return text
+        note = (f"Across two results folders: A, {a}, the runs of {results}; B, {b}, the runs of {other_results}. "
+                f"Paired on the dataset, seed and the other keys above, A and B also differ in whatever settings "
+                f"or code the two folders' runs differ in (each run's run.json records them).")
+        return text.rstrip("\n") + "\n" + wrap_caption(note, fmt) + "\n"
     except ValueError as error:
         raise ReportError(str(error)) from None

@@ -104,6 +104,40 @@ def test_report_shows_no_missed_class_column_where_every_unet_learnt_every_class
     assert "UNet missed" not in capsys.readouterr().out.split("\n\n")[0]  # the table, not its caption
 
 
+def test_paired_against_another_folder_pairs_the_same_cell_and_seed_across_folders(tmp_path, capsys):
+    """Two folders holding the same cells under two settings: A from the first, B from the second."""
+    first, second = tmp_path / "weighted", tmp_path / "plain"
+    shift = {"sha2020": np.array([0.02, -0.01, 0.03, 0.00, 0.01]), "proposed": np.array([0.05, 0.04, 0.06, 0.03, 0.05])}
+    for model, offset in (("sha2020", 0.0), ("proposed", -0.03)):
+        for seed in SEEDS:
+            b = BASE[seed] + offset
+            for folder, iou in ((first, b + shift[model][seed]), (second, b)):
+                _write_run(folder, model, "top-mse", seed, iou, 0.001, 100.0)
+                # Per image: the run's value on each of 4 images, so that A − B is the same on every image.
+                pd.DataFrame({"pool_index": range(4), "iou": iou}).to_csv(
+                    folder / "runs" / f"intersection-1_{model}_top-mse_s{seed}" / "metrics.csv", index=False)
+    _write_run(second, "sha2020", "top-mse", 7, 0.5, 0.001, 100.0)  # a seed the first folder lacks: no pair
+    assert main(["table", str(first), "--against", str(second), "--paired", "loss=top-mse", "loss=top-mse",
+                 "--format", "csv"]) == 0
+    paired = pd.read_csv(io.StringIO(capsys.readouterr().out)).set_index("model")
+    for model, d in shift.items():
+        d = 100.0 * d
+        row = paired.loc[model]
+        assert row["n_pairs"] == 5 and row["a_wins"] == int((d > 0).sum())
+        assert row["mean"] == pytest.approx(d.mean())
+        half = stats.t.ppf(0.975, 4) * d.std(ddof=1) / np.sqrt(5)
+        assert (row["t_low"], row["t_high"]) == pytest.approx((d.mean() - half, d.mean() + half))
+        # Each side's per-image values read from its own folder: every resample gives the mean difference.
+        assert (row["boot_low"], row["boot_high"]) == pytest.approx((d.mean(), d.mean()))
+    text = main(["table", str(first), "--against", str(second), "--paired", "loss=top-mse", "loss=top-mse"])
+    assert text == 0 and "top-mse (weighted) − top-mse (plain)" in capsys.readouterr().out
+    # Within one folder the same runs cannot pair with themselves; across, a side absent names its folder.
+    assert main(["table", str(first), "--against", str(second), "--paired", "loss=top-mse", "loss=mse"]) == 2
+    assert f"B, in {second}: no runs with loss 'mse'" in capsys.readouterr().err
+    assert main(["table", str(first), "--against", str(second)]) == 2
+    assert "--against needs --paired" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("low, high, paper, expected", [
     (1.0, 3.0, 2.0, "consistent with the paper"),  # contains d
     (2.5, 3.0, 2.0, "consistent with the paper"),  # excludes 0 on d's side, not containing d

@@ -322,7 +322,9 @@ def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
         ReportError: as :func:`paired_sides`, or no pairs to compare.
     """
     frame = one_label(frame)
-    if other is not None and results is not None and other_results is not None:
+    if other is not None:
+        if results is None or other_results is None:
+            raise ReportError("--against: both results folders are needed (their runs' per-image scores)")
         frame, key, a, b, across = _across_folders(frame, sides, metric, Path(results), one_label(other),
                                                      Path(other_results))
     else:

@@ -94,7 +94,9 @@ step $S bench --datasets intersection-1 intersection-2 --estimator proposed --ma
 # step $S2 bench --config unet30.yaml $U --results results-unet2-plain
 # ---- 2026-11-26 (eighth session): step 19's weighted reading done (5 seeds); its plain reading started beside
 #      the weighted reading's last run (a lock-waiting run left a core idle), then runs alone ----
-# 20. (next) the UNet cells of intersection-2 on main's code, class-weighted under the 30-epoch ceiling (replaces
+# ---- 2026-11-26 (ninth session): step 19's plain reading finished; step 20 started after it (finished runs and
+#      cached UNets are reused when the machine stops it) ----
+# 20. the UNet cells of intersection-2 on main's code, class-weighted under the 30-epoch ceiling (replaces
 #     step 16 below): mkdir -p results-unet3 && ln -sfn ../results/cache results-unet3/cache
 # step $S2 bench --config unet30w.yaml ${U/intersection-1/intersection-2} --results results-unet3
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)

@@ -74,7 +74,8 @@ from synthcal.eval.tables import (
     wrap_caption,
 )
 
-__all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "UNDECIDED", "verdict", "run_choices", "report_frame", "format_report"]
+__all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "UNDECIDED", "verdict", "run_choices", "missed_class_runs",
+           "report_frame", "format_report"]
 
 BASELINE = "sha2020"
 CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
@@ -120,6 +121,28 @@ def run_choices(results: str | Path | None, run_ids: pd.Series) -> pd.DataFrame:
         rows.append({**{key: chosen.get(key, np.nan) for key in CHOICES}, "unet_missed": _missed_classes(record),
                      "seconds": float(seconds) if isinstance(seconds, (int, float)) else np.nan})
     return pd.DataFrame(rows, index=run_ids.index, columns=[*CHOICES, "unet_missed", "seconds"])
+
+
+def missed_class_runs(results: str | Path, frame: pd.DataFrame) -> list[str]:
+    """One line per run whose kept UNet all but missed a class (its record's ``history["unet-missed-classes"]``).
+
+    ``bench`` and ``table`` print them after the tables, as they print failed runs: the
+    warning the run's process gave scrolls by among the progress bars of a sweep.
+
+    Args:
+        results: the results folder.
+        frame: its runs (:func:`synthcal.eval.harness.collect_results`; no ``run_id``: no line).
+
+    Returns:
+        ``"UNet missed class 3: <run id> (…)"`` lines, in the frame's order.
+    """
+    lines = []
+    for run_id in frame["run_id"].dropna().astype(str) if "run_id" in frame else []:
+        missed = _missed_classes(_record(Path(results), run_id))
+        if isinstance(missed, str) and missed != "none":
+            lines.append(f"UNet missed class {missed.replace('+', ', ')}: {run_id} (docs/decisions.md, "
+                         f"\"The UNet's loss\")")
+    return lines
 
 
 def _per_seed(values: pd.Series) -> str:

@@ -58,7 +58,11 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
                        missed=MISSED[seed] if loss == "dice" else None)
     _write_run(tmp_path, "proposed", "top-mse", 0, 0.7, None, 50.0, dataset="intersection-2")  # no sha2020 pair
     assert main(["table", str(tmp_path), "--layout", "report", "--format", "csv"]) == 0
-    report = pd.read_csv(io.StringIO(capsys.readouterr().out), keep_default_na=False, na_values=[""])
+    out, err = capsys.readouterr()
+    report = pd.read_csv(io.StringIO(out), keep_default_na=False, na_values=[""])
+    # The runs whose UNet missed a class are named after the table (off stdout for CSV), as failed runs are.
+    assert sorted(line.split(" (")[0] for line in err.splitlines() if line.startswith("UNet missed")) == [
+        "UNet missed class 1, 3: intersection-1_proposed_dice_s3", "UNet missed class 3: intersection-1_proposed_dice_s1"]
     expected = {"top-mse": "consistent with the paper", "mse": "opposite", "dice": "not reproduced"}
     for loss, shift in SHIFTS.items():
         row = report[(report["dataset"] == "intersection-1") & (report["loss"] == loss)

@@ -208,3 +208,11 @@ def test_the_reports_unet_layers_change_only_the_quick_unet(name, weights):
     assert layered.model_dump(exclude={"unet_epochs", "unet_class_weights"}) == \
         bundled.model_dump(exclude={"unet_epochs", "unet_class_weights"})
     assert bundled.unet_epochs != 30  # the layer is what sets it
+
+
+def test_the_reports_stn_ceiling_layer_changes_only_the_quick_stn_epochs():
+    """docs/sweeps/stn48.yaml (the report's STN-ceiling check) doubles the quick profile's STN epochs, nothing else."""
+    layered = load_config(ROOT / "docs" / "sweeps" / "stn48.yaml").training("quick")
+    bundled = load_config(ROOT / "datasets.yaml").training("quick")
+    assert layered.stn_epochs == 2 * bundled.stn_epochs == 48
+    assert layered.model_dump(exclude={"stn_epochs"}) == bundled.model_dump(exclude={"stn_epochs"})

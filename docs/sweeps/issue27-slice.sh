@@ -96,6 +96,12 @@ step $S bench --datasets intersection-1 intersection-2 --estimator proposed --ma
 #      the weighted reading's last run (a lock-waiting run left a core idle), then runs alone ----
 # ---- 2026-11-26 (ninth session): step 19's plain reading finished; step 20 started after it (finished runs and
 #      cached UNets are reused when the machine stops it) ----
+# 21. (ninth session, run before 20) the STN's epoch ceiling doubled, intersection-1, Top-MSE, true maps, both
+#     models, on the true-map runs' frozen code (Siamese cached), in a folder of its own:
+#     `synthcal table results-stn48 --against results --paired loss=top-mse loss=top-mse` isolates the ceiling
+# mkdir -p results-stn48 && ln -sfn ../results/cache results-stn48/cache
+# step $S bench --config stn48.yaml --datasets intersection-1 --estimator sha2020 proposed $SEL --data data \
+#     --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
 # 20. the UNet cells of intersection-2 on main's code, class-weighted under the 30-epoch ceiling (replaces
 #     step 16 below): mkdir -p results-unet3 && ln -sfn ../results/cache results-unet3/cache
 # step $S2 bench --config unet30w.yaml ${U/intersection-1/intersection-2} --results results-unet3

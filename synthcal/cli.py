@@ -607,7 +607,7 @@ def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
         text = paired_report(frame, sides, fmt, metric, results, other, against)
     except ReportError as error:
         raise _UserError(f"--paired: {error}") from None
-    print(text)
+    print(text.rstrip("\n"))
 
 
 class _UserError(ValueError):

@@ -38,11 +38,13 @@ EXPORTS: dict[str, str] = {
     "evaluate_images": "synthcal.api:evaluate_images",
     "bench": "synthcal.api:bench",
     "segmentation_quality": "synthcal.api:segmentation_quality",
+    "report": "synthcal.api:report",
+    "paired_differences": "synthcal.api:paired_differences",
 }
 
 # Written out (not derived from EXPORTS) so that linters and IDEs read it; tests/test_api.py holds the two equal.
 __all__ = ["__version__", "load_config", "generate_store", "open_store", "load_split", "SplitDataset", "Estimator",
-           "evaluate", "evaluate_images", "bench", "segmentation_quality"]
+           "evaluate", "evaluate_images", "bench", "segmentation_quality", "report", "paired_differences"]
 
 if TYPE_CHECKING:
     from synthcal.api import (
@@ -53,6 +55,8 @@ if TYPE_CHECKING:
         load_config,
         load_split,
         open_store,
+        paired_differences,
+        report,
         segmentation_quality,
     )
     from synthcal.data.loaders import SplitDataset

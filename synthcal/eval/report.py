@@ -28,13 +28,13 @@ import pandas as pd
 from synthcal.eval.harness import table_runs
 from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
-from synthcal.eval.statistics import background_floor, format_paired
+from synthcal.eval.statistics import background_floor, format_paired, paired_frame
 from synthcal.eval.tables import LAYOUTS, PAIR_KEYS, format_table, legend, wrap_caption
 from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
 __all__ = ["ReportError", "results_tables", "reproduction_report", "split_by",
            "one_label", "background_floors", "per_image_reader",
-           "paired_sides", "paired_report"]
+           "paired_sides", "paired_report", "paired_numbers", "report_numbers"]
 
 # The reading whose tables state the all-background floor: the one that rewards predicting background.
 FLOOR_READINGS = ("iou_weighted",)
@@ -136,6 +136,20 @@ def diagnostics_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str 
     return format_diagnostics(diagnostics, oracle_cells(frame, metric), fmt)
 
 
+def report_numbers(frame: pd.DataFrame, metric: str, results: str | Path | None = None) -> pd.DataFrame:
+    """:func:`reproduction_report`'s numbers (:func:`synthcal.eval.reproduction.report_frame`), references spread
+    over the training keys.
+
+    Raises:
+        ReportError: results the report cannot read (as :func:`synthcal.eval.tables.validate_results`).
+    """
+    try:
+        return report_frame(table_runs(frame, ("training", "loss", "matching_score", "segmentation")), metric,
+                            results, _ALIASES)
+    except ValueError as error:
+        raise ReportError(f"table 'report': {error}") from None
+
+
 def reproduction_report(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path | None = None) -> str:
     """``table --layout report``: :mod:`synthcal.eval.reproduction`'s report of the runs (one label per
     estimator already given), references spread over the training keys as in ``--paired``.
@@ -143,11 +157,7 @@ def reproduction_report(frame: pd.DataFrame, fmt: str, metric: str, results: str
     Raises:
         ReportError: results the report cannot read (as :func:`synthcal.eval.tables.validate_results`).
     """
-    try:
-        report = report_frame(table_runs(frame, ("training", "loss", "matching_score", "segmentation")), metric,
-                              results, _ALIASES)
-    except ValueError as error:
-        raise ReportError(f"table 'report': {error}") from None
+    report = report_numbers(frame, metric, results)
     mixed = frame[frame["dataset"].astype(str).str.startswith("mixed-")]
     return format_report(report, fmt) + ("\n" + diagnostics_text(mixed, results, metric, fmt) if len(mixed) else "")
 
@@ -304,6 +314,43 @@ def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, resu
     return pd.concat(parts, ignore_index=True), key, *labels, lambda run_id: readers[run_id[0]](run_id[2:])
 
 
+_Paired = tuple[pd.DataFrame, str, str, str, Callable[[str], pd.Series | None] | None, bool]
+
+
+def _paired_inputs(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: str | Path | None,
+                   other: pd.DataFrame | None, other_results: str | Path | None) -> _Paired:
+    """What :func:`synthcal.eval.statistics.paired_frame` reads for ``--paired A B [--against OTHER]``:
+    ``(frame, key, a, b, per_image, across)``, references spread over the training keys."""
+    frame = one_label(frame)
+    across = None
+    if other is not None:
+        if results is None or other_results is None:
+            raise ReportError("--against: both results folders are needed (their runs' per-image scores)")
+        frame, key, a, b, across = _across_folders(frame, sides, metric, Path(results), one_label(other),
+                                                     Path(other_results))
+    else:
+        key, a, b = paired_sides(frame, sides)
+    # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
+    # not over the key compared (its one value would be paired with itself).
+    frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
+    per_image = across or (None if results is None else per_image_reader(results, metric))
+    return frame, key, a, b, per_image, across is not None
+
+
+def paired_numbers(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: str | Path | None = None,
+                   other: pd.DataFrame | None = None, other_results: str | Path | None = None) -> pd.DataFrame:
+    """:func:`paired_report`'s numbers: :func:`synthcal.eval.statistics.paired_frame`, one row per cell.
+
+    Raises:
+        ReportError: as :func:`paired_report`.
+    """
+    frame, key, a, b, per_image, _ = _paired_inputs(frame, sides, metric, results, other, other_results)
+    try:
+        return paired_frame(frame, a, b, key, metric, _ALIASES, per_image)
+    except ValueError as error:
+        raise ReportError(str(error)) from None
+
+
 def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str,
                   results: str | Path | None = None, other: pd.DataFrame | None = None,
                   other_results: str | Path | None = None) -> str:
@@ -321,26 +368,14 @@ def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
     Raises:
         ReportError: as :func:`paired_sides`, or no pairs to compare.
     """
-    frame = one_label(frame)
-    if other is not None:
-        if results is None or other_results is None:
-            raise ReportError("--against: both results folders are needed (their runs' per-image scores)")
-        frame, key, a, b, across = _across_folders(frame, sides, metric, Path(results), one_label(other),
-                                                     Path(other_results))
-    else:
-        key, a, b = paired_sides(frame, sides)
-        across = None
+    frame, key, a, b, per_image, across = _paired_inputs(frame, sides, metric, results, other, other_results)
     try:
-        # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
-        # not over the key compared (its one value would be paired with itself).
-        frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
-        per_image = across or (None if results is None else per_image_reader(results, metric))
         text = format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES, per_image=per_image)
-        if across is None or fmt == "csv":
-            return text
-        note = (f"Across two results folders: A, {a}, the runs of {results}; B, {b}, the runs of {other_results}. "
-                f"Paired on the dataset, seed and the other keys above, A and B also differ in whatever settings "
-                f"or code the two folders' runs differ in (each run's run.json records them).")
-        return text.rstrip("\n") + "\n" + wrap_caption(note, fmt) + "\n"
     except ValueError as error:
         raise ReportError(str(error)) from None
+    if not across or fmt == "csv":
+        return text
+    note = (f"Across two results folders: A, {a}, the runs of {results}; B, {b}, the runs of {other_results}. "
+            f"Paired on the dataset, seed and the other keys above, A and B also differ in whatever settings "
+            f"or code the two folders' runs differ in (each run's run.json records them).")
+    return text.rstrip("\n") + "\n" + wrap_caption(note, fmt) + "\n"

@@ -178,9 +178,8 @@ def _differences(frame: pd.DataFrame, value: str, aliases: Mapping[str, str]) ->
                 continue
             pieces.append(cells.assign(model=model))
     columns = [*others, "model", "mean", "t_low", "t_high", "p", "n_pairs", "a_wins"]
-    if not pieces:
-        return pd.DataFrame(columns=columns)
-    return pd.concat(pieces, ignore_index=True)[columns].rename(columns={"mean": "difference", "a_wins": "wins"})
+    frame = pd.DataFrame(columns=columns) if not pieces else pd.concat(pieces, ignore_index=True)[columns]
+    return frame.rename(columns={"mean": "difference", "a_wins": "wins"})
 
 
 def report_frame(frame: pd.DataFrame, value: str = "iou", results: str | Path | None = None,

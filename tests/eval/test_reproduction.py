@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
+import synthcal
 from synthcal.cli import main
 from synthcal.eval.reproduction import verdict
 
@@ -83,6 +84,11 @@ def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, caps
         assert row["unet_missed"] == ("none, 3, none, 1+3, –" if loss == "dice" else "–")
         assert row["mean"] == pytest.approx(100.0 * np.mean(BASE + shift))
         assert row["std"] == pytest.approx(100.0 * np.std(BASE + shift, ddof=1))
+    # The Python API's report is the CSV's numbers.
+    api = synthcal.report(tmp_path)
+    pd.testing.assert_frame_equal(api[["model", "loss", "difference", "t_low", "t_high", "verdict"]],
+                                  report[["model", "loss", "difference", "t_low", "t_high", "verdict"]],
+                                  check_dtype=False)
     lone = report[report["dataset"] == "intersection-2"].iloc[0]
     assert lone["verdict"] == "–" and np.isnan(lone["t_low"]) and lone["learning_rates"] == "–"
     assert set(report.loc[report["model"] == "sha2020", "verdict"]) == {"–"}
@@ -106,6 +112,15 @@ def test_report_shows_no_missed_class_column_where_every_unet_learnt_every_class
     assert set(report["unet_missed"]) == {"none, none, none"}
     assert main(["table", str(tmp_path), "--layout", "report"]) == 0
     assert "UNet missed" not in capsys.readouterr().out.split("\n\n")[0]  # the table, not its caption
+
+
+def test_report_without_sha2020_runs_gives_each_cell_without_a_difference(tmp_path, capsys):
+    for seed in SEEDS[:2]:
+        _write_run(tmp_path, "proposed", "top-mse", seed, BASE[seed], 0.001, 100.0)
+    assert main(["table", str(tmp_path), "--layout", "report", "--format", "csv"]) == 0
+    row = pd.read_csv(io.StringIO(capsys.readouterr().out)).iloc[0]
+    assert row["n_seeds"] == 2 and np.isnan(row["difference"]) and row["verdict"] == "–"
+    assert row["mean"] == pytest.approx(100.0 * BASE[:2].mean())
 
 
 def test_paired_against_another_folder_pairs_the_same_cell_and_seed_across_folders(tmp_path, capsys):
@@ -133,6 +148,9 @@ def test_paired_against_another_folder_pairs_the_same_cell_and_seed_across_folde
         assert (row["t_low"], row["t_high"]) == pytest.approx((d.mean() - half, d.mean() + half))
         # Each side's per-image values read from its own folder: every resample gives the mean difference.
         assert (row["boot_low"], row["boot_high"]) == pytest.approx((d.mean(), d.mean()))
+    api = synthcal.paired_differences(first, "loss=top-mse", "loss=top-mse", against=second).set_index("model")
+    pd.testing.assert_frame_equal(api.loc[paired.index, ["mean", "t_low", "t_high", "boot_low", "boot_high"]],
+                                  paired[["mean", "t_low", "t_high", "boot_low", "boot_high"]])
     text = main(["table", str(first), "--against", str(second), "--paired", "loss=top-mse", "loss=top-mse"])
     assert text == 0 and "top-mse (weighted) − top-mse (plain)" in capsys.readouterr().out
     # Within one folder the same runs cannot pair with themselves; across, a side absent names its folder.

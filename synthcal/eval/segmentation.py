@@ -261,5 +261,7 @@ def format_quality(quality: pd.DataFrame, results: pd.DataFrame | None, fmt: str
         side = readings_side_by_side(results, metric, decimals)
         blocks.append(f"### {metric} on the UNet's maps beside the true maps (%)\n")
         blocks.append(_markdown(side, 5) if len(side) else
-                      "(no configuration has runs with both segmentation unet and ground-truth)\n")
+                      "(no configuration has runs with both segmentation unet and ground-truth in this folder; "
+                      "for true-map runs kept in another one: synthcal table TRUE-MAP-RESULTS --against "
+                      "THIS-FOLDER --paired segmentation=ground-truth segmentation=unet)\n")
     return "\n".join(blocks)

@@ -296,6 +296,9 @@ def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, resu
         ``(frame, key, a, b, per_image)``: run ids prefixed ``a:`` / ``b:`` (plain names hold no ``:``),
         which ``per_image`` reads from the side's folder.
     """
+    if results.resolve() == other_results.resolve():
+        raise ReportError(f"--against {other_results} is the results folder itself: pair within one folder with "
+                          f"--paired alone")
     try:
         key, a, _ = paired_sides(frame, [sides[0], sides[0]])
     except ReportError as error:

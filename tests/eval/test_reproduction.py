@@ -158,6 +158,8 @@ def test_paired_against_another_folder_pairs_the_same_cell_and_seed_across_folde
     assert f"B, in {second}: no runs with loss 'mse'" in capsys.readouterr().err
     assert main(["table", str(first), "--against", str(second)]) == 2
     assert "--against needs --paired" in capsys.readouterr().err
+    assert main(["table", str(first), "--against", str(first / "."), "--paired", "sha2020", "sha2020"]) == 2
+    assert "is the results folder itself" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("low, high, paper, expected", [

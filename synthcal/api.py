@@ -292,16 +292,10 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
 
 
 def _finished_runs(results: str | Path) -> pd.DataFrame:
-    """The finished runs of a results folder, one label per estimator (ValueError: none)."""
-    from synthcal.eval.harness import collect_results
-    from synthcal.eval.report import one_label
+    """The finished runs of a results folder, one label per estimator (ValueError: no folder, or no run)."""
+    from synthcal.eval.report import finished_runs, one_label
 
-    if not Path(results).is_dir():
-        raise ValueError(f"{results}: no such results folder")
-    frame = collect_results(results)
-    if frame.empty:
-        raise ValueError(f"{results}: no finished runs")
-    return one_label(frame)
+    return one_label(finished_runs(results))
 
 
 def report(results: str | Path, metric: str = "iou") -> pd.DataFrame:

@@ -593,16 +593,12 @@ def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pap
 def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str, results: Path,
                   against: Path | None = None) -> None:
     """Print :func:`synthcal.eval.report.paired_report` (``against``: side B's results folder)."""
-    from synthcal.eval.harness import collect_results
-    from synthcal.eval.report import ReportError, paired_report
+    from synthcal.eval.report import ReportError, finished_runs, paired_report
 
-    other = None
-    if against is not None:
-        if not against.is_dir():
-            raise _UserError(f"--against {against}: no such results folder")
-        other = collect_results(against)
-        if other.empty:
-            raise _UserError(f"--against {against}: no finished runs")
+    try:
+        other = None if against is None else finished_runs(against)
+    except ReportError as error:
+        raise _UserError(f"--against {error}") from None
     try:
         text = paired_report(frame, sides, fmt, metric, results, other, against)
     except ReportError as error:
@@ -696,15 +692,14 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
 
 
 def _cmd_table(args: argparse.Namespace) -> None:
-    from synthcal.eval.harness import collect_results
+    from synthcal.eval.report import ReportError, finished_runs
     from synthcal.eval.reproduction import missed_class_runs
     from synthcal.eval.tables import failed_runs
 
-    if not args.results.is_dir():
-        raise _UserError(f"{args.results}: no such results folder")
-    frame = collect_results(args.results)
-    if frame.empty:
-        raise _UserError(f"{args.results}: no finished runs")
+    try:
+        frame = finished_runs(args.results)
+    except ReportError as error:
+        raise _UserError(str(error)) from None
     if args.against and not args.paired:
         raise _UserError("--against needs --paired A B: A is read from RESULTS, B from the other folder (e.g. "
                          "--paired segmentation=unet segmentation=unet)")
@@ -736,14 +731,13 @@ def _cmd_segmentation(args: argparse.Namespace) -> None:
 
 
 def _cmd_plot(args: argparse.Namespace) -> None:
-    from synthcal.eval.harness import collect_results
     from synthcal.eval.plots import plot_iou, plot_overlays
-    from synthcal.eval.report import one_label
+    from synthcal.eval.report import ReportError, finished_runs, one_label
 
-    frame = collect_results(args.results)
-    if frame.empty:
-        raise _UserError(f"{args.results}: no finished runs")
-    frame = one_label(frame)
+    try:
+        frame = one_label(finished_runs(args.results))
+    except ReportError as error:
+        raise _UserError(str(error)) from None
     print(plot_iou(frame, args.output / "iou.png", args.metric))
     for dataset in dict.fromkeys(frame["dataset"]):
         print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count,

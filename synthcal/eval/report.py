@@ -25,14 +25,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from synthcal.eval.harness import table_runs
+from synthcal.eval.harness import collect_results, table_runs
 from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
 from synthcal.eval.statistics import background_floor, format_paired, paired_frame
 from synthcal.eval.tables import LAYOUTS, PAIR_KEYS, format_table, legend, wrap_caption
 from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
-__all__ = ["ReportError", "results_tables", "reproduction_report", "split_by",
+__all__ = ["ReportError", "finished_runs", "results_tables", "reproduction_report", "split_by",
            "one_label", "background_floors", "per_image_reader",
            "paired_sides", "paired_report", "paired_numbers", "report_numbers"]
 
@@ -45,6 +45,20 @@ _ALIASES = {"soccer": "worldcup2014"}
 
 class ReportError(ValueError):
     """The results cannot answer the request (no runs, a side absent, a layout without rows)."""
+
+
+def finished_runs(results: str | Path) -> pd.DataFrame:
+    """The finished runs of a results folder (:func:`synthcal.eval.harness.collect_results`).
+
+    Raises:
+        ReportError: no such folder, or no finished run in it (naming the folder).
+    """
+    if not Path(results).is_dir():
+        raise ReportError(f"{results}: no such results folder")
+    frame = collect_results(results)
+    if frame.empty:
+        raise ReportError(f"{results}: no finished runs")
+    return frame
 
 
 def split_by(frame: pd.DataFrame, keys: Sequence[str]) -> list[tuple[str, pd.DataFrame]]:

@@ -734,12 +734,12 @@ def _cmd_plot(args: argparse.Namespace) -> None:
     from synthcal.eval.plots import plot_iou, plot_overlays
     from synthcal.eval.report import ReportError, finished_runs, one_label, run_folders
 
-    if run_folders(args.results) is None:
-        raise _UserError(f"{args.results}: a runs archive; plot reads each run's estimates: give the results folder")
     try:
         frame = one_label(finished_runs(args.results))
     except ReportError as error:
         raise _UserError(str(error)) from None
+    if run_folders(args.results) is None:
+        raise _UserError(f"{args.results}: a runs archive; plot reads each run's estimates: give the results folder")
     print(plot_iou(frame, args.output / "iou.png", args.metric))
     for dataset in dict.fromkeys(frame["dataset"]):
         print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count,

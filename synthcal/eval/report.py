@@ -34,8 +34,8 @@ from synthcal.eval.statistics import background_floor, format_paired, paired_fra
 from synthcal.eval.tables import LAYOUTS, MISSING, PAIR_KEYS, format_table, legend, text_table, wrap_caption
 from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
-__all__ = ["ReportError", "finished_runs", "run_folders", "results_tables", "reproduction_report", "runs_layout", "split_by",
-           "one_label", "background_floors", "per_image_reader",
+__all__ = ["ReportError", "finished_runs", "run_folders", "results_tables", "reproduction_report", "runs_layout",
+           "split_by", "one_label", "background_floors", "per_image_reader",
            "paired_sides", "paired_report", "paired_numbers", "report_numbers"]
 
 # The reading whose tables state the all-background floor: the one that rewards predicting background.

@@ -165,8 +165,8 @@ def diagnostics_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str 
 
 
 # ``--layout runs`` in Markdown / LaTeX: the keys that vary, then these (the CSV holds every column).
-_RUN_COLUMNS = (("seed", "seed"), ("learning_rate", "lr"), ("unet_epochs", "UNet epochs"),
-                ("stn_epochs", "STN epochs"), ("seconds", "s"), ("run_id", "run"))
+_RUN_COLUMNS = (("learning_rate", "lr"), ("unet_epochs", "UNet epochs"), ("stn_epochs", "STN epochs"),
+                ("seconds", "s"), ("run_id", "run"))
 
 
 def runs_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path | None) -> str:
@@ -179,15 +179,24 @@ def runs_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path 
     keys = [k for k in PAIR_KEYS if k in archive and (k in ("dataset", "model") or archive[k].nunique() > 1)]
     archive = archive.sort_values([*keys, "seed"], kind="stable", key=lambda c: c.astype(str))
     scale = 1.0 if metric in PIXEL_METRICS else 100.0
-    header = [*keys, metric, *(name for _, name in _RUN_COLUMNS)]
-    body = [[*(MISSING if pd.isna(row[k]) else str(row[k]) for k in keys), f"{scale * row[metric]:.2f}",
-             *(MISSING if pd.isna(row[c]) else f"{row[c]:g}" if isinstance(row[c], float) else str(row[c])
-               for c, _ in _RUN_COLUMNS)] for row in archive.to_dict("records")]
+    header = [*keys, "seed", metric, *(name for _, name in _RUN_COLUMNS)]
+    body = [[*(MISSING if pd.isna(row[k]) else str(row[k]) for k in keys), str(row["seed"]),
+             f"{scale * row[metric]:.2f}", *(_run_cell(row[c], c) for c, _ in _RUN_COLUMNS)]
+            for row in archive.to_dict("records")]
     caption = (f"{metric}: the run's summary over its test images{'' if scale == 1 else ' (percent)'}; lr, UNet / "
                f"STN epochs: what validation chose; s: the run's seconds. `--format csv` writes every column: the "
                f"runs archive, which `synthcal table ARCHIVE.csv` reads in place of the results folder.")
     return text_table(header, body, "l" * len(keys) + "r" * (len(header) - len(keys) - 1) + "l",
                       wrap_caption(caption, fmt), fmt)
+
+
+def _run_cell(value: object, column: str) -> str:
+    """A cell of ``--layout runs`` in Markdown / LaTeX: seconds whole, other numbers as short as they are."""
+    if pd.isna(value):
+        return MISSING
+    if isinstance(value, float):
+        return f"{value:.0f}" if column == "seconds" else f"{value:g}"
+    return str(value)
 
 
 def report_numbers(frame: pd.DataFrame, metric: str, results: str | Path | None = None) -> pd.DataFrame:

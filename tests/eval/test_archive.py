@@ -51,6 +51,10 @@ def test_archive_holds_one_row_per_run_with_what_validation_chose(folder, tmp_pa
     assert row["iou"] == pytest.approx(BASE[1] - SHIFT[1])
     assert (row["learning_rate"], row["unet_epochs"], row["stn_epochs"], row["seconds"]) == (0.0003, 21, 11, 201)
     assert row["unet_missed"] == "3" and row["loss"] == "mse" and row["seed"] == 1
+    # In Markdown, the keys that vary, the seed, the reading in percent and the choices.
+    out, _ = _table(capsys, folder, "--layout", "runs")
+    assert "| intersection-1 | proposed | mse | 1 | 63.00 | 0.0003 | 21 | 11 | 201 | intersection-1_proposed_mse_s1 |" \
+        in out
 
 
 @pytest.mark.parametrize("layout", ["report", "models", "runs"])

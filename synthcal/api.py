@@ -303,7 +303,8 @@ def report(results: str | Path, metric: str = "iou") -> pd.DataFrame:
     ``sha2020`` with the 95 % t interval, the paper's figure and a verdict (docs/reproduction.md, "Verdicts").
 
     Args:
-        results: the results folder of :func:`bench`.
+        results: the results folder of :func:`bench`, or its runs archive (``synthcal table RESULTS --layout
+            runs --format csv``; :mod:`synthcal.eval.archive`).
         metric: the reading (``iou``, ``iou_weighted``, ``reproj_px`` …).
 
     Returns:
@@ -334,7 +335,8 @@ def paired_differences(results: str | Path, a: str, b: str, *, metric: str = "io
     A − B of runs on the same split seed and settings, with their 95 % t and bootstrap intervals.
 
     Args:
-        results: the results folder of :func:`bench` (side A's, with ``against``).
+        results: the results folder of :func:`bench` (side A's, with ``against``), or its runs archive (no
+            bootstrap interval: an archive keeps no per-image scores).
         a, b: model labels or estimator names (``proposed``, ``baseline``), or ``KEY=VALUE``
             for another key (``loss=top-mse``, ``segmentation=unet``).
         metric: the reading.

@@ -732,12 +732,14 @@ def _cmd_segmentation(args: argparse.Namespace) -> None:
 
 def _cmd_plot(args: argparse.Namespace) -> None:
     from synthcal.eval.plots import plot_iou, plot_overlays
-    from synthcal.eval.report import ReportError, finished_runs, one_label
+    from synthcal.eval.report import ReportError, finished_runs, one_label, run_folders
 
     try:
         frame = one_label(finished_runs(args.results))
     except ReportError as error:
         raise _UserError(str(error)) from None
+    if run_folders(args.results) is None:
+        raise _UserError(f"{args.results}: a runs archive; plot reads each run's estimates: give the results folder")
     print(plot_iou(frame, args.output / "iou.png", args.metric))
     for dataset in dict.fromkeys(frame["dataset"]):
         print(plot_overlays(args.results, frame, dataset, args.output / f"overlays-{dataset}.png", args.count,
@@ -1120,13 +1122,17 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 
 def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("table", help="the paper's tables from a results folder")
-    p.add_argument("results", type=Path, help="the results folder of `synthcal bench`")
-    p.add_argument("--layout", choices=["models", "matching", "mixed", "report", "diagnostics"], default=None,
+    p.add_argument("results", type=Path,
+                   help="the results folder of `synthcal bench`, or its runs archive (a .csv written by "
+                        "`--layout runs --format csv`: every table but diagnostics, no bootstrap interval)")
+    p.add_argument("--layout", choices=["models", "matching", "mixed", "report", "diagnostics", "runs"],
+                   default=None,
                    help="default: models (own dictionaries) and mixed (mixed dictionaries) where present; report: "
                         "one row per cell with its paired difference against sha2020, its 95 %% CI, the paper's "
                         "figures, what validation chose, the time per run and a verdict (docs/reproduction.md); "
                         "diagnostics: which template retrieved / template / oracle-template picked against the "
-                        "best-pose one, and pan errors, for every dataset")
+                        "best-pose one, and pan errors, for every dataset; runs: one row per run (with --format "
+                        "csv, the runs archive: what outlives the folder, e.g. in git)")
     p.add_argument("--format", choices=["md", "latex", "csv"], default="md", help="table format (default md)")
     p.add_argument("--compare-paper", action="store_true",
                    help="add the published figures (for each reading of the paper's IoU: iou, iou_bg, iou_weighted)")
@@ -1137,7 +1143,8 @@ def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                         "seeds where A > B, and the paper's A − B; A, B: models (proposed sha2020) or KEY=VALUE "
                         "(loss=top-mse loss=mse)")
     p.add_argument("--against", type=Path, default=None, metavar="OTHER",
-                   help="with --paired: read B's runs from another results folder (A's from RESULTS) and pair "
+                   help="with --paired: read B's runs from another results folder or runs archive (A's from "
+                        "RESULTS) and pair "
                         "them with A's of the same dataset, seed and other settings — a change kept in a folder of "
                         "its own, e.g. `synthcal table results-weighted --against results-plain --paired "
                         "segmentation=unet segmentation=unet`, or true maps against a UNet's, `--paired "

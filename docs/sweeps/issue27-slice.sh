@@ -105,6 +105,17 @@ step $S bench --datasets intersection-1 intersection-2 --estimator proposed --ma
 # 20. the UNet cells of intersection-2 on main's code, class-weighted under the 30-epoch ceiling (replaces
 #     step 16 below): mkdir -p results-unet3 && ln -sfn ../results/cache results-unet3/cache
 # step $S2 bench --config unet30w.yaml ${U/intersection-1/intersection-2} --results results-unet3
+# ---- 2026-11-26 (tenth session): the results folders above were lost with the machine between sessions. A new
+#      folder (results) and a clone of main e8eb178; the stores generated again (intersection-1..3: 17 s). After
+#      each slice: `synthcal table results --layout runs --format csv > docs/results/runs_tenth.csv` (the runs
+#      archive, which `synthcal table` reads in place of the folder) ----
+# 22. end-to-end Top-MSE on intersection-2 (64 min), Dice on intersection-1 (48 min), and sha2020 on
+#     intersection-1 Top-MSE again: the cell of report_iou.csv, a check that its figures reproduce
+step $S bench --datasets intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 --estimator sha2020 --loss top-mse $SEL $COMMON --workers 2
+# ---- 2026-11-26 (tenth session) stopped here; next: Top-Dice on intersection-2, then 13b onwards ----
+step $S bench --datasets intersection-2 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)
 step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
 # 15b. intersections 3-5 with MSE, mixed-4/-5 on both losses

@@ -5,7 +5,8 @@ over datasets and seeds (:mod:`.runs`: which runs a sweep has; :mod:`.isolation`
 estimator in a process of its own; :mod:`.harness`: executing runs and sweeps,
 reading the results), and its output (:mod:`.statistics`: paired differences and the
 all-background floor; :mod:`.tables`: the paper's result tables; :mod:`.report`:
-``synthcal table``'s text; :mod:`.plots`; :mod:`.segmentation`: the UNet's own
+``synthcal table``'s text; :mod:`.archive`: a results folder's runs as one CSV, read back in
+its place; :mod:`.plots`; :mod:`.segmentation`: the UNet's own
 per-class IoU/Dice, ``synthcal segmentation``).
 
 Convention: every homography maps a bird's-eye pixel to an image pixel,

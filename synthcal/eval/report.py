@@ -25,15 +25,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from synthcal.config import PIXEL_METRICS
+from synthcal.eval.archive import ArchiveError, is_archive, read_archive, runs_archive
 from synthcal.eval.harness import collect_results, table_runs
 from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
 from synthcal.eval.statistics import background_floor, format_paired, paired_frame
-from synthcal.eval.tables import LAYOUTS, PAIR_KEYS, format_table, legend, wrap_caption
+from synthcal.eval.tables import LAYOUTS, MISSING, PAIR_KEYS, format_table, legend, text_table, wrap_caption
 from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
-__all__ = ["ReportError", "finished_runs", "results_tables", "reproduction_report", "split_by",
-           "one_label", "background_floors", "per_image_reader",
+__all__ = ["ReportError", "finished_runs", "run_folders", "results_tables", "reproduction_report", "runs_layout",
+           "split_by", "one_label", "background_floors", "per_image_reader",
            "paired_sides", "paired_report", "paired_numbers", "report_numbers"]
 
 # The reading whose tables state the all-background floor: the one that rewards predicting background.
@@ -48,17 +50,30 @@ class ReportError(ValueError):
 
 
 def finished_runs(results: str | Path) -> pd.DataFrame:
-    """The finished runs of a results folder (:func:`synthcal.eval.harness.collect_results`).
+    """The finished runs of a results folder (:func:`synthcal.eval.harness.collect_results`), or of a runs
+    archive (a ``.csv`` file: :func:`synthcal.eval.archive.read_archive`).
 
     Raises:
-        ReportError: no such folder, or no finished run in it (naming the folder).
+        ReportError: no such folder, or no finished run in it (naming the folder); an archive that cannot be
+            read (naming the file, and the row and column where one is wrong).
     """
+    if is_archive(results):
+        try:
+            return read_archive(results)
+        except ArchiveError as error:
+            raise ReportError(str(error)) from None
     if not Path(results).is_dir():
         raise ReportError(f"{results}: no such results folder")
     frame = collect_results(results)
     if frame.empty:
         raise ReportError(f"{results}: no finished runs")
     return frame
+
+
+def run_folders(results: str | Path | None) -> str | Path | None:
+    """The results folder whose run folders the estimates and per-image scores are read from; None for a runs
+    archive (it keeps neither: no template diagnostics, no all-background floor, no bootstrap) or no source."""
+    return None if results is None or is_archive(results) else results
 
 
 def split_by(frame: pd.DataFrame, keys: Sequence[str]) -> list[tuple[str, pd.DataFrame]]:
@@ -101,13 +116,11 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
     if frame.empty:
         raise ReportError("no finished runs in the results folder")
     frame = one_label(frame)
-    if layout == "report":
-        yield reproduction_report(frame, fmt, metric, results)
+    if layout in _WHOLE_LAYOUTS:
+        yield _WHOLE_LAYOUTS[layout](frame, fmt, metric, results)
         return
-    if layout == "diagnostics":
-        yield diagnostics_layout(frame, fmt, metric, results)
-        return
-    floors = background_floors(results, frame, metric) if results is not None and metric in FLOOR_READINGS else {}
+    folder = run_folders(results)
+    floors = background_floors(folder, frame, metric) if folder is not None and metric in FLOOR_READINGS else {}
     frame = table_runs(frame)
     if layout in LAYOUTS:  # only the layout's rows decide its parts (UNet runs on no mixed dictionary: no UNet part)
         rows = frame["dataset"].str.startswith("mixed-") == LAYOUTS[layout].mixed
@@ -125,7 +138,7 @@ def results_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pa
                 raise ReportError(f"table {name!r}: {error}") from None
             yield table
             if name == "mixed":
-                diagnostics = diagnostics_text(part, results, metric, fmt)
+                diagnostics = diagnostics_text(part, folder, metric, fmt)
                 if diagnostics:
                     yield diagnostics
     if fmt != "csv":
@@ -139,8 +152,9 @@ def diagnostics_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str 
     Raises:
         ReportError: no results folder, or no run whose template picks can be identified.
     """
-    if results is None:
-        raise ReportError("table 'diagnostics' reads the runs' estimates: give the results folder")
+    if results is None or is_archive(results):
+        raise ReportError(f"table 'diagnostics' reads the runs' estimates: give the results folder"
+                          f"{'' if results is None else f' ({results} is a runs archive)'}")
     diagnostics = template_diagnostics(frame, results, mixed_only=False)
     if diagnostics.empty:
         raise ReportError("table 'diagnostics': no finished run of retrieved, template or oracle-template whose "
@@ -148,6 +162,41 @@ def diagnostics_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str 
     if fmt == "csv":
         return diagnostics.to_csv(index=False)
     return format_diagnostics(diagnostics, oracle_cells(frame, metric), fmt)
+
+
+# ``--layout runs`` in Markdown / LaTeX: the keys that vary, then these (the CSV holds every column).
+_RUN_COLUMNS = (("learning_rate", "lr"), ("unet_epochs", "UNet epochs"), ("stn_epochs", "STN epochs"),
+                ("seconds", "s"), ("run_id", "run"))
+
+
+def runs_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path | None) -> str:
+    """``table --layout runs``: one row per run. CSV: the runs archive (:mod:`synthcal.eval.archive`), which
+    ``synthcal table`` reads back in place of the folder; Markdown / LaTeX: the keys that vary, the seed, the
+    reading and what validation chose."""
+    archive = frame if results is not None and is_archive(results) else runs_archive(frame, results)
+    if fmt == "csv":
+        return archive.to_csv(index=False)
+    keys = [k for k in PAIR_KEYS if k in archive and (k in ("dataset", "model") or archive[k].nunique() > 1)]
+    archive = archive.sort_values([*keys, "seed"], kind="stable", key=lambda c: c.astype(str))
+    scale = 1.0 if metric in PIXEL_METRICS else 100.0
+    header = [*keys, "seed", metric, *(name for _, name in _RUN_COLUMNS)]
+    body = [[*(MISSING if pd.isna(row[k]) else str(row[k]) for k in keys), str(row["seed"]),
+             f"{scale * row[metric]:.2f}", *(_run_cell(row[c], c) for c, _ in _RUN_COLUMNS)]
+            for row in archive.to_dict("records")]
+    caption = (f"{metric}: the run's summary over its test images{'' if scale == 1 else ' (percent)'}; lr, UNet / "
+               f"STN epochs: what validation chose; s: the run's seconds. `--format csv` writes every column: the "
+               f"runs archive, which `synthcal table ARCHIVE.csv` reads in place of the results folder.")
+    return text_table(header, body, "l" * len(keys) + "r" * (len(header) - len(keys) - 1) + "l",
+                      wrap_caption(caption, fmt), fmt)
+
+
+def _run_cell(value: object, column: str) -> str:
+    """A cell of ``--layout runs`` in Markdown / LaTeX: seconds whole, other numbers as short as they are."""
+    if pd.isna(value):
+        return MISSING
+    if isinstance(value, float):
+        return f"{value:.0f}" if column == "seconds" else f"{value:g}"
+    return str(value)
 
 
 def report_numbers(frame: pd.DataFrame, metric: str, results: str | Path | None = None) -> pd.DataFrame:
@@ -173,7 +222,13 @@ def reproduction_report(frame: pd.DataFrame, fmt: str, metric: str, results: str
     """
     report = report_numbers(frame, metric, results)
     mixed = frame[frame["dataset"].astype(str).str.startswith("mixed-")]
-    return format_report(report, fmt) + ("\n" + diagnostics_text(mixed, results, metric, fmt) if len(mixed) else "")
+    return format_report(report, fmt) + ("\n" + diagnostics_text(mixed, run_folders(results), metric, fmt)
+                                         if len(mixed) else "")
+
+
+# Layouts that are one block for all the runs (not one table per segmentation and profile).
+_WHOLE_LAYOUTS: dict[str, Callable[[pd.DataFrame, str, str, str | Path | None], str]] = {
+    "report": reproduction_report, "diagnostics": diagnostics_layout, "runs": runs_layout}
 
 
 def one_label(frame: pd.DataFrame) -> pd.DataFrame:
@@ -263,9 +318,12 @@ def background_floors(results: str | Path, frame: pd.DataFrame, metric: str) -> 
 
 def per_image_reader(results: str | Path, metric: str) -> Callable[[str], pd.Series | None]:
     """A run id → its per-image ``metric`` (fractions indexed by pool index, NaN where not scored), read from
-    ``RESULTS/runs/<run-id>/metrics.csv``; None where the file or column is missing."""
+    ``RESULTS/runs/<run-id>/metrics.csv``; None where the file or column is missing, or for every run of a runs
+    archive (which keeps no per-image scores)."""
     @functools.cache
     def read(run_id: str) -> pd.Series | None:
+        if is_archive(results):
+            return None
         try:
             per_image = pd.read_csv(Path(results) / "runs" / run_id / "metrics.csv", usecols=["pool_index", metric])
         except (OSError, ValueError):

@@ -123,6 +123,14 @@ def run_choices(results: str | Path | None, run_ids: pd.Series) -> pd.DataFrame:
     return pd.DataFrame(rows, index=run_ids.index, columns=[*CHOICES, "unet_missed", "seconds"])
 
 
+def _choices(frame: pd.DataFrame, results: str | Path | None) -> pd.DataFrame:
+    """:func:`run_choices` of the frame's runs, or the frame's own columns where it has them (a runs archive)."""
+    columns = [*CHOICES, "unet_missed", "seconds"]
+    if set(columns) <= set(frame.columns):
+        return frame[columns]
+    return run_choices(results, frame.get("run_id", pd.Series(np.nan, frame.index)))
+
+
 def missed_class_runs(results: str | Path, frame: pd.DataFrame) -> list[str]:
     """One line per run whose kept UNet all but missed a class (its record's ``history["unet-missed-classes"]``).
 
@@ -130,15 +138,17 @@ def missed_class_runs(results: str | Path, frame: pd.DataFrame) -> list[str]:
     warning the run's process gave scrolls by among the progress bars of a sweep.
 
     Args:
-        results: the results folder.
+        results: the results folder (unread where the frame holds ``unet_missed``: a runs archive).
         frame: its runs (:func:`synthcal.eval.harness.collect_results`; no ``run_id``: no line).
 
     Returns:
         ``"UNet missed class 3: <run id> (…)"`` lines, in the frame's order.
     """
-    lines = []
-    for run_id in frame["run_id"].dropna().astype(str) if "run_id" in frame else []:
-        missed = _missed_classes(_record(Path(results), run_id))
+    lines: list[str] = []
+    if "run_id" not in frame:
+        return lines
+    missed_per_run = _choices(frame, results)["unet_missed"]
+    for run_id, missed in zip(frame["run_id"].astype(str), missed_per_run, strict=True):
         if isinstance(missed, str) and missed != "none":
             lines.append(f"UNet missed class {missed.replace('+', ', ')}: {run_id} (docs/decisions.md, "
                          f"\"The UNet's loss\")")
@@ -190,7 +200,8 @@ def report_frame(frame: pd.DataFrame, value: str = "iou", results: str | Path | 
         frame: per-run results (:func:`synthcal.eval.harness.collect_results`, references
             already spread over the training keys: :func:`synthcal.eval.harness.table_runs`).
         value: the reading.
-        results: the results folder, whose records give the choices and times (None: "–").
+        results: the results folder, whose records give the choices and times (None: "–"), unless the
+            frame holds them (a runs archive, :mod:`synthcal.eval.archive`).
         aliases: our dataset label → the paper's.
 
     Returns:
@@ -200,7 +211,8 @@ def report_frame(frame: pd.DataFrame, value: str = "iou", results: str | Path | 
     aliases = aliases or {}
     checked = validate_results(frame, value, PAIR_KEYS)
     checked["dictionary"] = (frame["dictionary"].fillna("split").astype(str) if "dictionary" in frame else "split")
-    checked = pd.concat([checked, run_choices(results, checked.get("run_id", pd.Series(np.nan, checked.index)))],
+    choices = _choices(frame, results).set_axis(checked.index)
+    checked = pd.concat([checked.drop(columns=list(choices.columns), errors="ignore"), choices],
                         axis=1).sort_values("seed", kind="stable")
     scale = 1.0 if value in PIXEL_METRICS else 100.0
     grouped = checked.groupby(list(CELL_KEYS), sort=False)

@@ -67,6 +67,15 @@ def test_oracle_scores_one_through_bench(data, tmp_path, capsys):
         # Every metric of SPEC §8 is stored per image, the three readings of the paper's IoU included.
         assert (per_image[["iou_bg", "iou_weighted", "iou_part", "iou_whole"]] == 1.0).all().all()
     assert "| intersection-1 | 100.00 ± 0.00 |" in capsys.readouterr().out.replace("**", "")
+    # The runs archive of real records prints the same tables as the folder, and writes itself again unchanged.
+    archive = tmp_path / "runs.csv"
+    assert main(["table", str(tmp_path), "--layout", "runs", "--format", "csv"]) == 0
+    archive.write_text(capsys.readouterr().out)
+    for layout in ("runs", "models", "report"):
+        assert main(["table", str(tmp_path), "--layout", layout, "--format", "csv"]) == 0
+        from_folder = capsys.readouterr().out
+        assert main(["table", str(archive), "--layout", layout, "--format", "csv"]) == 0
+        assert capsys.readouterr().out == from_folder
 
 
 def test_failing_estimators_score_zero_and_the_sweep_goes_on(data, tmp_path, capsys):

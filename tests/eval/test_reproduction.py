@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import io
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from run_records import write_run as _write_run
 from scipy import stats
 
 import synthcal
@@ -24,22 +24,6 @@ MISSED = [[], [3], [], [1, 3], None]
 SHIFTS = {"top-mse": np.array([0.030, 0.025, 0.035, 0.020, 0.028]),  # CI well above 0
           "mse": np.array([-0.030, -0.025, -0.035, -0.020, -0.028]),  # CI well below 0
           "dice": np.array([0.004, -0.006, 0.002, -0.003, 0.001])}  # CI around 0, far from the paper's
-
-
-def _write_run(results: Path, model: str, loss: str | None, seed: int, iou: float, lr: float | None,
-               seconds: float, dataset: str = "intersection-1", unet_epochs: int | None = None,
-               missed: list[int] | None = None) -> None:
-    run_id = f"{dataset}_{model}_{loss}_s{seed}"
-    folder = results / "runs" / run_id
-    folder.mkdir(parents=True)
-    run = {"dataset": dataset, "model": model, "estimator": model, "seed": seed, "training": "step-by-step",
-           "loss": loss, "matching": "top-mse", "segmentation": "ground-truth", "profile": "quick"}
-    record = {"run": run, "id": run_id, "status": "ok", "seconds": seconds,
-              "summary": {"iou": iou, "completeness": 1.0, "n_images": 8},
-              "selection": {"chosen": {"learning_rate": lr, "stn_epochs": 10 + seed,
-                                       **({"unet_epochs": unet_epochs} if unet_epochs else {})}} if lr else None,
-              **({"history": {"unet-missed-classes": missed}} if missed is not None else {})}
-    (folder / "run.json").write_text(json.dumps(record))
 
 
 def _paper(model: str, loss: str) -> float:

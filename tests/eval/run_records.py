@@ -1,0 +1,23 @@
+"""Hand-written run records (``RESULTS/runs/<id>/run.json``), for the tests of what reads a results folder."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+def write_run(results: Path, model: str, loss: str | None, seed: int, iou: float, lr: float | None,
+               seconds: float, dataset: str = "intersection-1", unet_epochs: int | None = None,
+               missed: list[int] | None = None) -> None:
+    """One finished run's record; ``lr`` None: a run that chose nothing (no ``selection``)."""
+    run_id = f"{dataset}_{model}_{loss}_s{seed}"
+    folder = results / "runs" / run_id
+    folder.mkdir(parents=True)
+    run = {"dataset": dataset, "model": model, "estimator": model, "seed": seed, "training": "step-by-step",
+           "loss": loss, "matching": "top-mse", "segmentation": "ground-truth", "profile": "quick"}
+    record = {"run": run, "id": run_id, "status": "ok", "seconds": seconds,
+              "summary": {"iou": iou, "completeness": 1.0, "n_images": 8},
+              "selection": {"chosen": {"learning_rate": lr, "stn_epochs": 10 + seed,
+                                       **({"unet_epochs": unet_epochs} if unet_epochs else {})}} if lr else None,
+              **({"history": {"unet-missed-classes": missed}} if missed is not None else {})}
+    (folder / "run.json").write_text(json.dumps(record))

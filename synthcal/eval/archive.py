@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from synthcal.config import FAILURE_SHARES, METRICS
-from synthcal.eval.reproduction import CHOICES, run_choices
+from synthcal.eval.reproduction import CHOICES, frame_choices
 
 __all__ = ["ARCHIVE_SUFFIX", "CHOICE_COLUMNS", "KEY_COLUMNS", "NUMBER_COLUMNS", "ArchiveError", "is_archive",
            "runs_archive", "read_archive"]
@@ -47,7 +47,8 @@ def is_archive(source: str | Path) -> bool:
 
 
 def runs_archive(frame: pd.DataFrame, results: str | Path | None) -> pd.DataFrame:
-    """The runs archive of a results folder's runs: ``frame`` with :data:`CHOICE_COLUMNS` from each run's record.
+    """The runs archive of a results folder's runs: ``frame`` with :data:`CHOICE_COLUMNS` from each run's record
+    (kept as they are where ``frame`` has them: an archive read back).
 
     Args:
         frame: the folder's runs (:func:`synthcal.eval.harness.collect_results`).
@@ -57,7 +58,7 @@ def runs_archive(frame: pd.DataFrame, results: str | Path | None) -> pd.DataFram
         ``frame``'s columns then :data:`CHOICE_COLUMNS`, sorted by run id (one order
         whatever order the runs finished in); :data:`NUMBER_COLUMNS` as floats.
     """
-    choices = run_choices(results, frame["run_id"])
+    choices = frame_choices(frame, results)
     archive = pd.concat([frame.drop(columns=[c for c in CHOICE_COLUMNS if c in frame]), choices], axis=1)
     # Numbers as floats, as read_archive reads them, so that an archive written again is the same bytes.
     numbers = [c for c in NUMBER_COLUMNS if c in archive]

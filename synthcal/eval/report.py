@@ -152,10 +152,11 @@ def diagnostics_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str 
     Raises:
         ReportError: no results folder, or no run whose template picks can be identified.
     """
-    if results is None or is_archive(results):
+    folder = run_folders(results)
+    if folder is None:
         raise ReportError(f"table 'diagnostics' reads the runs' estimates: give the results folder"
                           f"{'' if results is None else f' ({results} is a runs archive)'}")
-    diagnostics = template_diagnostics(frame, results, mixed_only=False)
+    diagnostics = template_diagnostics(frame, folder, mixed_only=False)
     if diagnostics.empty:
         raise ReportError("table 'diagnostics': no finished run of retrieved, template or oracle-template whose "
                           "templates can be identified")
@@ -173,7 +174,7 @@ def runs_layout(frame: pd.DataFrame, fmt: str, metric: str, results: str | Path 
     """``table --layout runs``: one row per run. CSV: the runs archive (:mod:`synthcal.eval.archive`), which
     ``synthcal table`` reads back in place of the folder; Markdown / LaTeX: the keys that vary, the seed, the
     reading and what validation chose."""
-    archive = frame if results is not None and is_archive(results) else runs_archive(frame, results)
+    archive = runs_archive(frame, results)
     if fmt == "csv":
         return archive.to_csv(index=False)
     keys = [k for k in PAIR_KEYS if k in archive and (k in ("dataset", "model") or archive[k].nunique() > 1)]
@@ -320,10 +321,11 @@ def per_image_reader(results: str | Path, metric: str) -> Callable[[str], pd.Ser
     """A run id → its per-image ``metric`` (fractions indexed by pool index, NaN where not scored), read from
     ``RESULTS/runs/<run-id>/metrics.csv``; None where the file or column is missing, or for every run of a runs
     archive (which keeps no per-image scores)."""
+    if is_archive(results):
+        return lambda run_id: None
+
     @functools.cache
     def read(run_id: str) -> pd.Series | None:
-        if is_archive(results):
-            return None
         try:
             per_image = pd.read_csv(Path(results) / "runs" / run_id / "metrics.csv", usecols=["pool_index", metric])
         except (OSError, ValueError):

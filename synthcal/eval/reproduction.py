@@ -74,8 +74,8 @@ from synthcal.eval.tables import (
     wrap_caption,
 )
 
-__all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "UNDECIDED", "verdict", "run_choices", "missed_class_runs",
-           "report_frame", "format_report"]
+__all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "UNDECIDED", "verdict", "run_choices", "frame_choices",
+           "missed_class_runs", "report_frame", "format_report"]
 
 BASELINE = "sha2020"
 CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
@@ -123,8 +123,9 @@ def run_choices(results: str | Path | None, run_ids: pd.Series) -> pd.DataFrame:
     return pd.DataFrame(rows, index=run_ids.index, columns=[*CHOICES, "unet_missed", "seconds"])
 
 
-def _choices(frame: pd.DataFrame, results: str | Path | None) -> pd.DataFrame:
-    """:func:`run_choices` of the frame's runs, or the frame's own columns where it has them (a runs archive)."""
+def frame_choices(frame: pd.DataFrame, results: str | Path | None) -> pd.DataFrame:
+    """:func:`run_choices` of the frame's runs, or the frame's own columns where it has them (a runs archive),
+    indexed like ``frame``."""
     columns = [*CHOICES, "unet_missed", "seconds"]
     if set(columns) <= set(frame.columns):
         return frame[columns]
@@ -147,7 +148,7 @@ def missed_class_runs(results: str | Path, frame: pd.DataFrame) -> list[str]:
     lines: list[str] = []
     if "run_id" not in frame:
         return lines
-    missed_per_run = _choices(frame, results)["unet_missed"]
+    missed_per_run = frame_choices(frame, results)["unet_missed"]
     for run_id, missed in zip(frame["run_id"].astype(str), missed_per_run, strict=True):
         if isinstance(missed, str) and missed != "none":
             lines.append(f"UNet missed class {missed.replace('+', ', ')}: {run_id} (docs/decisions.md, "
@@ -211,7 +212,7 @@ def report_frame(frame: pd.DataFrame, value: str = "iou", results: str | Path | 
     aliases = aliases or {}
     checked = validate_results(frame, value, PAIR_KEYS)
     checked["dictionary"] = (frame["dictionary"].fillna("split").astype(str) if "dictionary" in frame else "split")
-    choices = _choices(frame, results).set_axis(checked.index)
+    choices = frame_choices(frame, results).set_axis(checked.index)
     checked = pd.concat([checked.drop(columns=list(choices.columns), errors="ignore"), choices],
                         axis=1).sort_values("seed", kind="stable")
     scale = 1.0 if value in PIXEL_METRICS else 100.0

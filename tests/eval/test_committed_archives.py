@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 import synthcal
@@ -44,3 +45,17 @@ def test_every_judged_cell_of_an_archive_is_quoted_with_its_verdict(archive: Pat
         assert any(f"{interval} | {form} |" in line for line in quoting for form in forms), (
             f"{archive.name}: {cell.dataset} {cell.loss} {metric}: {interval} is not followed by '{cell.verdict}'"
         )
+
+
+@pytest.mark.parametrize("metric", ["iou", "iou_weighted"])
+def test_the_rerun_cell_reproduces_the_lost_folders_figures(metric: str):
+    """The tenth session reran `sha2020` on intersection-1 (Top-MSE, true maps) on another machine and code hash;
+    reproduction.md ("The same cell again") says every figure equals the lost folder's report to the last digit."""
+    keys = {"dataset": "intersection-1", "training": "step-by-step", "loss": "top-mse", "model": "sha2020",
+            "segmentation": "ground-truth", "dictionary": "split"}
+    printed = pd.read_csv(ROOT / "docs" / "results" / f"report_{metric}.csv")
+    rerun = synthcal.report(ROOT / "docs" / "results" / "runs_tenth.csv", metric=metric)
+    first, again = (frame.loc[(frame[list(keys)] == pd.Series(keys)).all(axis=1)] for frame in (printed, rerun))
+    assert len(first) == len(again) == 1
+    for column in ("n_seeds", "mean", "std", "learning_rates", "stn_epochs", "paper"):
+        assert first[column].iloc[0] == again[column].iloc[0], column

@@ -115,9 +115,18 @@ step $S bench --datasets intersection-2 --estimator sha2020 proposed --training 
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 --estimator sha2020 --loss top-mse $SEL $COMMON --workers 2
 # ---- 2026-11-26 (tenth session) stopped here; next: Top-Dice on intersection-2, then 13b onwards ----
+# 23. (eleventh session, the same clone and folder; archive docs/results/runs_eleventh.csv) Top-Dice and Dice on
+#     intersection-2 (46 and 45 min; `synthcal table results --paired loss=top-dice loss=dice`), MSE on
+#     intersection-3
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
-# 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1)
-step $S bench --datasets intersection-2 --estimator sha2020-ccbv $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
+step $S bench --datasets intersection-3 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
+# ---- 2026-11-26 (eleventh session) stopped here; next: 13b onwards. The trained models on mixed-osm4-1 (17) need
+#      its stores: `SYNTHCAL=<main's synthcal> BENCH=$S bash docs/sweeps/osm-junctions.sh` in the sweep folder
+#      (82 s at K = 4, eleventh session) ----
+# 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1), with sha2020 beside it:
+#      its Top-MSE runs on intersection-2 were lost with the folders, and the report pairs within a folder
+step $S bench --datasets intersection-2 --estimator sha2020 sha2020-ccbv $SEL $COMMON --workers 2
 # 15b. intersections 3-5 with MSE, mixed-4/-5 on both losses
 step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
 # 14. the rest of end-to-end and the Dice losses on intersection-1 and -2

@@ -1,0 +1,61 @@
+"""The runs archives kept in git (docs/results/runs_*.csv) against the report that quotes them.
+
+The sweep folders do not outlive a session; these archives are what is left of the runs. Two things must hold
+for the report to stay honest: today's code still reads every archive, and every verdict docs/reproduction.md
+prints for an archived cell is the one the archive gives — the same interval, to the printed digit, followed
+by the same verdict in a verdict table.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import synthcal
+
+ROOT = Path(__file__).resolve().parents[2]
+ARCHIVES = sorted((ROOT / "docs" / "results").glob("runs_*.csv"))
+REPORT = ROOT / "docs" / "reproduction.md"
+
+
+def _signed(value: float) -> str:
+    """``+2.34`` / ``−3.05`` as reproduction.md prints a difference (a true minus sign)."""
+    return f"{value:+.2f}".replace("-", "\u2212")
+
+
+def test_there_are_archives_to_check():
+    assert ARCHIVES, "docs/results holds no runs archive"
+
+
+@pytest.mark.parametrize("archive", ARCHIVES, ids=lambda path: path.name)
+@pytest.mark.parametrize("metric", ["iou", "iou_weighted"])
+def test_every_judged_cell_of_an_archive_is_quoted_with_its_verdict(archive: Path, metric: str):
+    cells = synthcal.report(archive, metric=metric)
+    judged = cells[cells["verdict"] != "–"]
+    lines = REPORT.read_text(encoding="utf-8").splitlines()
+    for cell in judged.itertuples():
+        interval = f"{_signed(cell.difference)} [{_signed(cell.t_low)}, {_signed(cell.t_high)}]"
+        quoting = [line for line in lines if interval in line]
+        assert quoting, f"{archive.name}: {cell.dataset} {cell.training} {cell.loss} {metric}: {interval} not in {REPORT.name}"
+        # The verdict tables put the verdict in the cell after the interval; "consistent (and with no
+        # difference)" is their short form of the undecided verdict.
+        forms = {cell.verdict, cell.verdict.replace("consistent with the paper (and", "consistent (and")}
+        assert any(f"{interval} | {form} |" in line for line in quoting for form in forms), (
+            f"{archive.name}: {cell.dataset} {cell.loss} {metric}: {interval} is not followed by '{cell.verdict}'"
+        )
+
+
+@pytest.mark.parametrize("metric", ["iou", "iou_weighted"])
+def test_the_rerun_cell_reproduces_the_lost_folders_figures(metric: str):
+    """The tenth session reran `sha2020` on intersection-1 (Top-MSE, true maps) on another machine and code hash;
+    reproduction.md ("The same cell again") says every figure equals the lost folder's report to the last digit."""
+    keys = {"dataset": "intersection-1", "training": "step-by-step", "loss": "top-mse", "model": "sha2020",
+            "segmentation": "ground-truth", "dictionary": "split"}
+    printed = pd.read_csv(ROOT / "docs" / "results" / f"report_{metric}.csv")
+    rerun = synthcal.report(ROOT / "docs" / "results" / "runs_tenth.csv", metric=metric)
+    first, again = (frame.loc[(frame[list(keys)] == pd.Series(keys)).all(axis=1)] for frame in (printed, rerun))
+    assert len(first) == len(again) == 1
+    for column in ("n_seeds", "mean", "std", "learning_rates", "stn_epochs", "paper"):
+        assert first[column].iloc[0] == again[column].iloc[0], column

@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 import synthcal
+from synthcal.eval.statistics import UNDECIDED, VERDICTS
 
 ROOT = Path(__file__).resolve().parents[2]
 ARCHIVES = sorted((ROOT / "docs" / "results").glob("runs_*.csv"))
@@ -33,15 +34,14 @@ def test_there_are_archives_to_check():
 @pytest.mark.parametrize("metric", ["iou", "iou_weighted"])
 def test_every_judged_cell_of_an_archive_is_quoted_with_its_verdict(archive: Path, metric: str):
     cells = synthcal.report(archive, metric=metric)
-    judged = cells[cells["verdict"] != "–"]
+    judged = cells[cells["verdict"].isin([*VERDICTS, UNDECIDED])]
     lines = REPORT.read_text(encoding="utf-8").splitlines()
     for cell in judged.itertuples():
         interval = f"{_signed(cell.difference)} [{_signed(cell.t_low)}, {_signed(cell.t_high)}]"
         quoting = [line for line in lines if interval in line]
         assert quoting, f"{archive.name}: {cell.dataset} {cell.training} {cell.loss} {metric}: {interval} not in {REPORT.name}"
-        # The verdict tables put the verdict in the cell after the interval; "consistent (and with no
-        # difference)" is their short form of the undecided verdict.
-        forms = {cell.verdict, cell.verdict.replace("consistent with the paper (and", "consistent (and")}
+        # The verdict tables put the verdict in the cell after the interval, the undecided one in a short form.
+        forms = {cell.verdict, cell.verdict.replace(UNDECIDED, "consistent (and with no difference)")}
         assert any(f"{interval} | {form} |" in line for line in quoting for form in forms), (
             f"{archive.name}: {cell.dataset} {cell.loss} {metric}: {interval} is not followed by '{cell.verdict}'"
         )

@@ -124,6 +124,12 @@ step $S bench --datasets intersection-3 --estimator sha2020 proposed --loss mse 
 # ---- 2026-11-26 (eleventh session) stopped here; next: 13b onwards. The trained models on mixed-osm4-1 (17) need
 #      its stores: `SYNTHCAL=<main's synthcal> BENCH=$S bash docs/sweeps/osm-junctions.sh` in the sweep folder
 #      (82 s at K = 4, eleventh session) ----
+# 24. (twelfth session, the same clone and folder; archive docs/results/runs_twelfth.csv) the trained models on the
+#     real-junction mix (17, moved up: 42 min), then intersection-4 with MSE (part of 15b: its runs are reused
+#     there); intersection-4/-5's stores: `$S generate intersection-4 intersection-5 --profile quick --out data
+#     --splits --quiet --yes` (20 s each), then `$S split data/intersection-4.zarr` for the mixes that need -5
+step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator sha2020 proposed template retrieved oracle-template $SEL $COMMON --workers 2
+step $S bench --datasets intersection-4 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1), with sha2020 beside it:
 #      its Top-MSE runs on intersection-2 were lost with the folders, and the report pairs within a folder
 step $S bench --datasets intersection-2 --estimator sha2020 sha2020-ccbv $SEL $COMMON --workers 2
@@ -134,5 +140,3 @@ step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 propo
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
 # 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
-# 17. the trained models on the real-junction mix
-step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator sha2020 proposed $SEL $COMMON --workers 2

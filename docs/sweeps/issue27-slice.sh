@@ -130,9 +130,9 @@ step $S bench --datasets intersection-3 --estimator sha2020 proposed --loss mse 
 #     --splits --quiet --yes` (20 s each), then `$S split data/intersection-4.zarr` for the mixes that need -5
 step $S bench --config osm.bench.yaml --datasets mixed-osm4-1 --estimator sha2020 proposed template retrieved oracle-template $SEL $COMMON --workers 2
 step $S bench --datasets intersection-4 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
-# ---- 2026-11-26 (twelfth session) stopped here: step 24 done (42 and 65 min); intersection-5 with MSE was started
-#      beside intersection-4's last run and 13b after it (finished runs are reused); next: those, then 15b ----
 step $S bench --datasets intersection-5 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
+# ---- 2026-11-26 (twelfth session) stopped here: step 24 done (42, 65 and 57 min; intersection-5 started beside
+#      intersection-4's last run); 13b was started after it (finished runs are reused); next: 13b, then 15b ----
 # 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1), with sha2020 beside it:
 #      its Top-MSE runs on intersection-2 were lost with the folders, and the report pairs within a folder
 step $S bench --datasets intersection-2 --estimator sha2020 sha2020-ccbv $SEL $COMMON --workers 2

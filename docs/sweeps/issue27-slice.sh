@@ -133,11 +133,18 @@ step $S bench --datasets intersection-4 --estimator sha2020 proposed --loss mse 
 step $S bench --datasets intersection-5 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
 # ---- 2026-11-26 (twelfth session) stopped here: step 24 done (42, 65 and 57 min; intersection-5 started beside
 #      intersection-4's last run); 13b was started after it (finished runs are reused); next: 13b, then 15b ----
-# 13b. sha2020-ccbv on intersection-2 (a baseline check already made on intersection-1), with sha2020 beside it:
-#      its Top-MSE runs on intersection-2 were lost with the folders, and the report pairs within a folder
+# 13b. (thirteenth session, the same clone and folder; archive docs/results/runs_thirteenth.csv) sha2020-ccbv on
+#      intersection-2 (a baseline check already made on intersection-1), with sha2020 beside it: its Top-MSE runs on
+#      intersection-2 were lost with the folders, and the report pairs within a folder; then proposed (started beside
+#      the last sha2020-ccbv run) and the diagnostics, so the whole Top-MSE cell is in one folder again
 step $S bench --datasets intersection-2 --estimator sha2020 sha2020-ccbv $SEL $COMMON --workers 2
-# 15b. intersections 3-5 with MSE, mixed-4/-5 on both losses
-step $S bench --datasets intersection-3 intersection-4 intersection-5 mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator proposed $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator retrieved oracle-template template $SEL $COMMON --workers 2
+# ---- 2026-11-27 (thirteenth session) stopped here: 13b done (sha2020 + sha2020-ccbv 96 min, proposed 37 min beside
+#      it); mixed-4/-5 were started after it (finished runs are reused); next: 15b, then 14 and 16 ----
+# 15b. mixed-4/-5 on both losses (intersections 3-5 with MSE are done: step 23/24), then intersections 3-5 with
+#      Top-MSE again (lost with the folders; only needed for pairing with new runs)
+step $S bench --datasets mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
 # 14. the rest of end-to-end and the Dice losses on intersection-1 and -2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2

@@ -33,7 +33,10 @@ Results layout
                                         predict_seconds, the estimator's ``history``
                                         (per-epoch losses), ``selection`` (what
                                         validation chose) and ``stage_keys`` (cache
-                                        keys of its shared stages) if any, summary
+                                        keys of its shared stages) if any, ``machine``
+                                        (the processor, PyTorch's CPU instruction set
+                                        and threads, library versions: what decides a
+                                        trained model's last bits), summary
     RESULTS/cache/<stage>/<key>.pt      shared trained stages (:mod:`.training`)
 
 ``run-id`` is :attr:`Run.id` (:mod:`synthcal.eval.runs`, "Run ids"): readable

@@ -2,6 +2,7 @@
 
 import json
 import os
+import platform
 import shutil
 import signal
 import subprocess
@@ -27,6 +28,7 @@ from synthcal.eval.harness import (
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.store.splits import SplitError, read_split_indices
+from synthcal.utils.machine import cpu_model
 
 ROOT = Path(__file__).resolve().parents[2]
 ORACLE = "synthcal_oracle_plugin:OracleEstimator"
@@ -361,6 +363,8 @@ def test_the_device_is_part_of_the_identity_of_runs_that_take_one(data, tmp_path
     folder = execute_run(on["cpu"]["SizeRecordingEstimator"], tmp_path)
     record = json.loads((folder / "run.json").read_text())
     assert record["device"] == record["run"]["device"] == record["history"]["device"] == "cpu"
+    # The machine, read in the run's own process; a NumPy estimator's process has no torch to describe.
+    assert record["machine"] == {"cpu": cpu_model(), "python": platform.python_version(), "numpy": np.__version__}
 
 
 def test_bench_refuses_a_device_this_machine_lacks(data, tmp_path, capsys):

@@ -258,8 +258,10 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
         timeout: seconds each run's process may take; None: no limit.
         progress: progress bars.
         workers: runs executed side by side, this machine's cores shared among them
-            (:func:`synthcal.eval.harness.run_threads`); the scores agree with one
-            worker's up to floating-point rounding (torch's thread count orders its sums).
+            (:func:`synthcal.eval.harness.run_threads`). torch's thread count orders its
+            sums: the scores agree with one worker's up to that rounding, which a long
+            training can grow into another kept epoch (docs/benchmark.md); each
+            ``run.json`` records its threads (``machine``).
 
     Returns:
         one row per finished run of this call: ``dataset``, ``model``, ``seed``, the

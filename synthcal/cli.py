@@ -639,6 +639,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     print(f"bench: {counted(len(runs), 'run')}: {len(runs) - len(todo)} reused, {len(todo)} to run; "
           f"profile {args.profile or 'none (built-in training defaults)'}; using per seed:")
     print("\n".join(plan_lines(runs)), flush=True)
+    if args.scheduler is None:
+        to_run = {run.id for run in todo}
+        _warn_thread_counts(args.results, [run for run in runs if run.id not in to_run], args.workers)
     if not _preview_bench(todo, args):
         print("synthcal: no run started", file=sys.stderr)
         return 1
@@ -664,6 +667,24 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         print(f"{len(failed)} run(s) failed; fix the cause and run the same command again: failed runs are run "
               f"again, finished ones kept")
     return 1 if len(failed) else 0
+
+
+def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int) -> None:
+    """One line when reused runs trained at another torch thread count than this sweep's runs get.
+
+    The thread count orders torch's sums; over a training the rounding can move the epoch
+    validation keeps, so such figures compare only to a seed's spread (docs/benchmark.md).
+    """
+    from synthcal.eval.harness import recorded_threads, run_threads
+
+    threads = run_threads(workers)
+    other = {count: n for count, n in recorded_threads(results, reused).items() if count != threads}
+    if other:
+        listed = ", ".join(f"{n} at {count}" for count, n in sorted(other.items()))
+        print(f"bench: {sum(other.values())} of the {len(reused)} reused runs trained at another torch thread "
+              f"count ({listed}) than this sweep's runs get ({threads}, --workers {workers}): their figures "
+              f"compare to the new ones only up to the thread count's rounding (docs/benchmark.md); "
+              f"--workers sets it", flush=True)
 
 
 def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:

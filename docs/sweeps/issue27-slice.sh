@@ -145,6 +145,8 @@ step $S bench --datasets intersection-2 --estimator retrieved oracle-template te
 # 15b. mixed-4/-5 on both losses (intersections 3-5 with MSE are done: step 23/24), then intersections 3-5 with
 #      Top-MSE again (lost with the folders; only needed for pairing with new runs)
 step $S bench --datasets mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
+# ---- 2026-11-27 (fourteenth session) stopped here: mixed-4 done (35 runs, archive docs/results/runs_fourteenth.csv;
+#      sha2020 385-465 s/run, proposed 527-795 s/run beside it); mixed-5 under way (finished runs are reused) ----
 # 14. the rest of end-to-end and the Dice losses on intersection-1 and -2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2

@@ -33,7 +33,10 @@ Results layout
                                         predict_seconds, the estimator's ``history``
                                         (per-epoch losses), ``selection`` (what
                                         validation chose) and ``stage_keys`` (cache
-                                        keys of its shared stages) if any, summary
+                                        keys of its shared stages) if any, ``machine``
+                                        (the processor, PyTorch's CPU instruction set
+                                        and threads, library versions: what decides a
+                                        trained model's last bits), summary
     RESULTS/cache/<stage>/<key>.pt      shared trained stages (:mod:`.training`)
 
 ``run-id`` is :attr:`Run.id` (:mod:`synthcal.eval.runs`, "Run ids"): readable
@@ -142,6 +145,7 @@ __all__ = [
     "sweep_exchanges",
     "run_sweep",
     "run_threads",
+    "recorded_threads",
     "collect_results",
     "is_finished",
     "recorded_seconds",
@@ -195,6 +199,21 @@ def is_finished(results: str | Path, run: Run) -> bool:
         return False
     record = read_record(path, "ignored; the run is done again")
     return record is not None and record["status"] == "ok"
+
+
+def recorded_threads(results: str | Path, runs: Iterable[Run]) -> dict[int, int]:
+    """How many of the finished ``runs`` recorded each torch thread count (``machine`` of ``run.json``).
+
+    Runs without a torch thread count (NumPy estimators, records older than the field) are not counted.
+    """
+    counts: dict[int, int] = {}
+    for run in runs:
+        path = run_folder(results, run) / "run.json"
+        record = read_record(path) if path.is_file() else None
+        threads = (record or {}).get("machine", {}).get("torch_threads")
+        if isinstance(threads, int):
+            counts[threads] = counts.get(threads, 0) + 1
+    return counts
 
 
 def with_device(run: Run, device: str | None) -> Run:

@@ -61,6 +61,7 @@ from synthcal.eval.runs import AXES, Run, constructor_parameters, prefix_positio
 from synthcal.store import StoreError
 from synthcal.utils.atomic import atomic_write
 from synthcal.utils.dispatch import die_with_parent, thread_environment
+from synthcal.utils.machine import machine_record
 
 __all__ = ["DEFAULT_TIMEOUT", "RunProcesses", "SweepStopped", "estimate_in_process", "estimate_isolated", "takes_validation",
            "load_run_split", "run_child",
@@ -194,7 +195,8 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
         (``""`` or ``"<stage>: <exception>"``), ``data_error`` (a store or split that
         cannot be read: the sweep stops), ``sizes`` (samples of each split used),
         ``fit_seconds``, ``predict_seconds``, ``history``, ``selection``, ``stage_keys``, ``traceback`` where
-        they apply.
+        they apply, and ``machine`` (:func:`synthcal.utils.machine.machine_record`: the processor, PyTorch's
+        instruction set and threads in this process, the library versions).
     """
     outcome: dict[str, Any] = {"estimates": None, "error": ""}
     name = "load"
@@ -238,6 +240,7 @@ def estimate_in_process(run: Run, results: Path, progress: bool, stage: Callable
     except Exception as error:  # an estimator's failure is a result, not a crash (module docstring)
         detail = "".join(traceback.format_exception_only(type(error), error)).strip()
         outcome.update(estimates=None, error=f"{name}: {detail}", traceback=traceback.format_exc())
+    outcome["machine"] = machine_record()  # after the estimator: torch's part only if it imported torch
     return outcome
 
 

@@ -2,6 +2,7 @@
 
 import json
 import os
+import platform
 import shutil
 import signal
 import subprocess
@@ -22,11 +23,13 @@ from synthcal.eval.harness import (
     execute_run,
     expand_runs,
     run_sweep,
+    run_threads,
     table_runs,
 )
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.store.splits import SplitError, read_split_indices
+from synthcal.utils.machine import cpu_model
 
 ROOT = Path(__file__).resolve().parents[2]
 ORACLE = "synthcal_oracle_plugin:OracleEstimator"
@@ -361,6 +364,8 @@ def test_the_device_is_part_of_the_identity_of_runs_that_take_one(data, tmp_path
     folder = execute_run(on["cpu"]["SizeRecordingEstimator"], tmp_path)
     record = json.loads((folder / "run.json").read_text())
     assert record["device"] == record["run"]["device"] == record["history"]["device"] == "cpu"
+    # The machine, read in the run's own process; a NumPy estimator's process has no torch to describe.
+    assert record["machine"] == {"cpu": cpu_model(), "python": platform.python_version(), "numpy": np.__version__}
 
 
 def test_bench_refuses_a_device_this_machine_lacks(data, tmp_path, capsys):
@@ -690,6 +695,26 @@ def test_workers_run_side_by_side_with_cores_shared_out(data, tmp_path, monkeypa
                  for run_id in collect_results(tmp_path / "results")["run_id"]]
     assert len(histories) == 2  # seeds 0 and 1, each met the other while fitting: they ran at once
     assert all(h["met"] and h["threads"] == max(1, usable_cores() // 2) for h in histories)
+
+
+def test_bench_says_when_reused_runs_trained_at_another_thread_count(data, tmp_path, capsys):
+    """A resumed sweep whose --workers gives its runs another torch thread count than the reused runs had."""
+    results = tmp_path / "results"
+    assert bench(data, results, "identity", seeds="0-1") == 0
+    capsys.readouterr()
+    records = sorted((results / "runs").glob("*/run.json"))
+    ours = run_threads(1)
+    for path, threads in zip(records, (ours, ours + 3), strict=True):  # as a torch run records it
+        record = json.loads(path.read_text())
+        record["machine"]["torch_threads"] = threads
+        path.write_text(json.dumps(record))
+    assert bench(data, results, "identity", seeds="0-1") == 0
+    out = capsys.readouterr().out
+    assert (f"bench: 1 of the 2 reused runs trained at another torch thread count (1 at {ours + 3}) than this "
+            f"sweep's runs get ({ours}, --workers 1)") in out
+    records[1].write_text(records[1].read_text().replace(f'"torch_threads": {ours + 3}', f'"torch_threads": {ours}'))
+    assert bench(data, results, "identity", seeds="0-1") == 0
+    assert "torch thread count" not in capsys.readouterr().out
 
 
 def test_two_workers_score_as_one_and_train_a_shared_stage_once(data, tmp_path, capsys):

@@ -11,7 +11,7 @@ from sklearn.metrics import accuracy_score, f1_score, jaccard_score
 
 from synthcal.cli import main
 from synthcal.data import load_split, read_scene
-from synthcal.eval.harness import collect_results, read_record
+from synthcal.eval.harness import collect_results, read_record, run_threads
 from synthcal.eval.segmentation import (
     class_scores,
     confusion_matrix,
@@ -109,6 +109,10 @@ def test_segmentation_prints_the_checkpoints_scores(unet_bench, smoke_config, ca
     (unet_run,) = [record for record in map(read_record, (results / "runs").glob("*/run.json"))
                    if record["run"]["segmentation"] == "unet"]
     assert unet_run["stage_keys"]["unet"] == checkpoint.stem and "unet-validation" in unet_run["history"]
+    # What decides the trained stages' last bits: torch's instruction set and the threads bench gave the run.
+    machine = unet_run["machine"]
+    assert machine["torch"] == torch.__version__ and machine["torch_threads"] == run_threads(1)
+    assert machine["cpu_capability"] == torch.backends.cpu.get_cpu_capability()
     settings = smoke_config.training("smoke").settings()
     unet = UNet(num_classes=4, width=settings["unet_width"], depth=settings["unet_depth"])
     unet.load_state_dict(torch.load(checkpoint, weights_only=True))

@@ -315,8 +315,9 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
         timeout: seconds each run's process may take; None or 0: no limit.
         rerun: run the finished runs again too (their results are replaced).
         workers: runs executed side by side here, each with :func:`run_threads` torch threads.
-            The scores agree with one worker's up to floating-point rounding: a run's torch
-            thread count changes the order of its sums, not the run's identity.
+            A run's torch thread count changes the order of its sums, not the run's identity:
+            over a training the rounding can move the epoch validation keeps, so the scores
+            agree with one worker's only to a seed's spread (docs/benchmark.md).
 
     Returns:
         :func:`collect_results` of the folder.

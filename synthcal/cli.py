@@ -1133,8 +1133,8 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                         "dataset, settings and estimator code)")
     p.add_argument("--workers", type=_positive_int, default=1,
                    help="runs executed side by side, this machine's cores shared among them (torch threads per "
-                        "run: cores // WORKERS); scores agree with one worker's up to floating-point rounding "
-                        "(default 1)")
+                        "run: cores // WORKERS, at most OMP_NUM_THREADS if set); the thread count orders torch's "
+                        "sums, so a trained model's figures move with it (docs/benchmark.md) (default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_yes(p, f"above {CONFIRM_SECONDS / 60:g} min")
     _add_config(p)

@@ -70,8 +70,8 @@ skipped with a :class:`DamagedRecordWarning` naming it, and its run is done agai
 Side by side
 ------------
 ``run_sweep(..., workers=N)`` executes N runs at once, each in its own process
-started from a thread of the sweep, with ``cores // N`` torch threads
-(:func:`run_threads`). Runs needing the same trained stage share it through the
+started from a thread of the sweep, with ``cores // N`` torch threads, at most
+``OMP_NUM_THREADS`` where the user set it (:func:`run_threads`). Runs needing the same trained stage share it through the
 stage cache's lock (:mod:`synthcal.training.cache`): one trains it, the others wait
 and load it.
 
@@ -86,6 +86,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import os
 import threading
 import warnings
 from collections.abc import Iterable, Sequence
@@ -314,8 +315,9 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
         timeout: seconds each run's process may take; None or 0: no limit.
         rerun: run the finished runs again too (their results are replaced).
         workers: runs executed side by side here, each with :func:`run_threads` torch threads.
-            The scores agree with one worker's up to floating-point rounding: a run's torch
-            thread count changes the order of its sums, not the run's identity.
+            A run's torch thread count changes the order of its sums, not the run's identity:
+            over a training the rounding can move the epoch validation keeps, so the scores
+            agree with one worker's only to a seed's spread (docs/benchmark.md).
 
     Returns:
         :func:`collect_results` of the folder.
@@ -349,8 +351,13 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
 
 
 def run_threads(workers: int) -> int:
-    """torch threads of each of ``workers`` runs executed side by side: this machine's cores shared out, at least 1."""
-    return max(1, usable_cores() // max(1, workers))
+    """torch threads of each of ``workers`` runs executed side by side: this machine's cores shared out, at least 1,
+    and at most ``OMP_NUM_THREADS`` where the user set it to a positive count (two sweeps side by side on one
+    machine: ``OMP_NUM_THREADS=1``; a run's process is given its count in its environment, so without this cap the
+    user's setting would be overridden)."""
+    threads = max(1, usable_cores() // max(1, workers))
+    cap = os.environ.get("OMP_NUM_THREADS", "").strip()
+    return min(threads, int(cap)) if cap.isdigit() and int(cap) > 0 else threads
 
 
 def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers: int, bar: tqdm,

@@ -694,7 +694,22 @@ def test_workers_run_side_by_side_with_cores_shared_out(data, tmp_path, monkeypa
     histories = [record_of(tmp_path / "results", run_id)["history"]
                  for run_id in collect_results(tmp_path / "results")["run_id"]]
     assert len(histories) == 2  # seeds 0 and 1, each met the other while fitting: they ran at once
-    assert all(h["met"] and h["threads"] == max(1, usable_cores() // 2) for h in histories)
+    assert all(h["met"] and h["threads"] == run_threads(2) for h in histories)
+    assert run_threads(2) == min(max(1, usable_cores() // 2), int(os.environ.get("OMP_NUM_THREADS") or 10**6))
+
+
+@pytest.mark.parametrize(("omp", "expected"), [(None, 8), ("1", 1), ("3", 3), ("16", 8), ("0", 8), ("2,1", 8),
+                                               ("many", 8)])
+def test_a_runs_threads_share_the_cores_at_most_as_many_as_the_user_set(monkeypatch, omp, expected):
+    """16 cores over 2 workers: 8 threads a run, fewer where OMP_NUM_THREADS (a positive count) says so."""
+    import synthcal.eval.harness as harness
+
+    monkeypatch.setattr(harness, "usable_cores", lambda: 16)
+    if omp is None:
+        monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    else:
+        monkeypatch.setenv("OMP_NUM_THREADS", omp)
+    assert run_threads(2) == expected
 
 
 def test_bench_says_when_reused_runs_trained_at_another_thread_count(data, tmp_path, capsys):

@@ -1,11 +1,12 @@
 """What a run's floats depend on beyond its code and settings: the machine and its libraries.
 
 A bundled model trained twice with the same code, settings, data and cached stages
-is bit-identical on one machine, but not necessarily on another: PyTorch picks its
-CPU kernels by the instruction set it finds (``torch.backends.cpu.get_cpu_capability``:
-``AVX2``, ``AVX512``, …) and the thread count splits its sums differently, so the
-last bits of a training step can differ, and after a few epochs of training so can
-the epoch validation keeps (docs/reproduction.md, "How it was run"). A run records
+is bit-identical at one thread count on one machine, not at another thread count: the
+threads split torch's sums differently, the last bits of a training step differ, and
+after some epochs so can the epoch validation keeps (measured: docs/reproduction.md,
+intersection-2, "The cell again"; benchmarks/run_threads.py). Another processor may
+round differently too: PyTorch picks its CPU kernels by the instruction set it finds
+(``torch.backends.cpu.get_cpu_capability``: ``AVX2``, ``AVX512``, …). A run records
 :func:`machine_record` so that two runs that differ can be told apart by their
 machines rather than by guessing.
 """

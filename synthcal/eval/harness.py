@@ -317,7 +317,7 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
         workers: runs executed side by side here, each with :func:`run_threads` torch threads.
             A run's torch thread count changes the order of its sums, not the run's identity:
             over a training the rounding can move the epoch validation keeps, so the scores
-            agree with one worker's only to a seed's spread (docs/benchmark.md).
+            need not agree with one worker's to the digit (docs/benchmark.md).
 
     Returns:
         :func:`collect_results` of the folder.

@@ -673,7 +673,7 @@ def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int) -> N
     """One line when reused runs trained at another torch thread count than this sweep's runs get.
 
     The thread count orders torch's sums; over a training the rounding can move the epoch
-    validation keeps, so such figures compare only to a seed's spread (docs/benchmark.md).
+    validation keeps, so such figures need not agree to the digit (docs/benchmark.md).
     """
     from synthcal.eval.harness import recorded_threads, run_threads
 

@@ -641,14 +641,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     print("\n".join(plan_lines(runs)), flush=True)
     if args.scheduler is None:
         to_run = {run.id for run in todo}
-        _warn_thread_counts(args.results, [run for run in runs if run.id not in to_run], args.workers)
+        _warn_thread_counts(args.results, [run for run in runs if run.id not in to_run], args.workers, args.threads)
     if not _preview_bench(todo, args):
         print("synthcal: no run started", file=sys.stderr)
         return 1
     started = time.perf_counter()
     try:
         frame = run_sweep(runs, args.results, scheduler=args.scheduler, progress=_progress(args),
-                          timeout=args.timeout or None, rerun=args.rerun, workers=args.workers)
+                          timeout=args.timeout or None, rerun=args.rerun, workers=args.workers,
+                          threads=args.threads)
     except KeyboardInterrupt:  # the running run's process is already killed; finished runs stay
         print(f"synthcal: interrupted; finished runs are kept in {args.results}: run the same command again "
               f"to resume", file=sys.stderr)
@@ -669,7 +670,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 1 if len(failed) else 0
 
 
-def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int) -> None:
+def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int, fixed: int | None) -> None:
     """One line when reused runs trained at another torch thread count than this sweep's runs get.
 
     The thread count orders torch's sums; over a training the rounding can move the epoch
@@ -677,14 +678,14 @@ def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int) -> N
     """
     from synthcal.eval.harness import recorded_threads, run_threads
 
-    threads = run_threads(workers)
+    threads = run_threads(workers, fixed)
     other = {count: n for count, n in recorded_threads(results, reused).items() if count != threads}
     if other:
         listed = ", ".join(f"{n} at {count}" for count, n in sorted(other.items()))
         print(f"bench: {sum(other.values())} of the {len(reused)} reused runs trained at another torch thread "
-              f"count ({listed}) than this sweep's runs get ({threads}, --workers {workers}): their figures "
-              f"compare to the new ones only up to the thread count's rounding (docs/benchmark.md); "
-              f"--workers sets it", flush=True)
+              f"count ({listed}) than this sweep's runs get ({threads}, "
+              f"{f'--threads {fixed}' if fixed else f'--workers {workers}'}): their figures compare to the new "
+              f"ones only up to the thread count's rounding (docs/benchmark.md); --threads sets it", flush=True)
 
 
 def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
@@ -1132,9 +1133,14 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="run every run again, finished ones too (default: reuse the finished runs of the same "
                         "dataset, settings and estimator code)")
     p.add_argument("--workers", type=_positive_int, default=1,
-                   help="runs executed side by side, this machine's cores shared among them (torch threads per "
-                        "run: cores // WORKERS, at most OMP_NUM_THREADS if set); the thread count orders torch's "
-                        "sums, so a trained model's figures move with it (docs/benchmark.md) (default 1)")
+                   help="runs executed side by side, this machine's cores shared among them unless --threads "
+                        "is given (default 1)")
+    p.add_argument("--threads", type=_positive_int, default=None, metavar="N",
+                   help="torch threads of each run, whatever --workers (default: cores // WORKERS, at most "
+                        "OMP_NUM_THREADS if set; on a --scheduler cluster, torch's default); the thread count "
+                        "orders torch's sums, so a trained model's figures move with it: fix it (the "
+                        "reproduction sweeps: --threads 1) for figures that --workers does not change "
+                        "(docs/benchmark.md)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_yes(p, f"above {CONFIRM_SECONDS / 60:g} min")
     _add_config(p)

@@ -615,7 +615,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from synthcal.config import load_config
     from synthcal.estimators.options import merge_options
     from synthcal.eval.harness import check_device, expand_runs, is_finished, plan_lines, run_sweep
-    from synthcal.eval.reproduction import missed_class_runs
+    from synthcal.eval.reproduction import missed_class_runs, tied_selection_runs
     from synthcal.eval.tables import counted
 
     _check_folder(args.results, "--results")
@@ -662,7 +662,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     _print_tables(frame, None, "md", False, results=args.results)
     for row in failed.itertuples():
         print(f"failed: {row.run_id}: {row.error or 'no reason recorded'}")
-    for line in missed_class_runs(args.results, frame):
+    for line in missed_class_runs(args.results, frame) + tied_selection_runs(args.results, frame):
         print(line)
     if len(failed):
         print(f"{len(failed)} run(s) failed; fix the cause and run the same command again: failed runs are run "
@@ -715,7 +715,7 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
 
 def _cmd_table(args: argparse.Namespace) -> None:
     from synthcal.eval.report import ReportError, finished_runs
-    from synthcal.eval.reproduction import missed_class_runs
+    from synthcal.eval.reproduction import missed_class_runs, tied_selection_runs
     from synthcal.eval.tables import failed_runs
 
     try:
@@ -730,8 +730,8 @@ def _cmd_table(args: argparse.Namespace) -> None:
     else:
         _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric, args.results)
     # Failed runs count in the means (IoU 0, completeness 0); say which and why, off stdout for CSV; so too
-    # runs whose UNet lost a class (their pipeline lacks it).
-    for line in failed_runs(frame) + missed_class_runs(args.results, frame):
+    # runs whose UNet lost a class (their pipeline lacks it) and runs whose validation tied every candidate.
+    for line in failed_runs(frame) + missed_class_runs(args.results, frame) + tied_selection_runs(args.results, frame):
         if args.format == "csv":
             print(line, file=sys.stderr)
         else:

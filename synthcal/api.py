@@ -237,7 +237,7 @@ def evaluate(split: SplitDataset, estimates: Any) -> dict[str, float]:
 def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], results: str | Path,
           seeds: Sequence[int] = (0,), profile: str | None = None, *, config: str | Path | None = None,
           device: str = "auto", timeout: float | None = None, progress: bool = False,
-          workers: int = 1) -> pd.DataFrame:
+          workers: int = 1, threads: int | None = None) -> pd.DataFrame:
     """Fit and score estimators over datasets and seeds, one process per run (resumable).
 
     ``synthcal bench`` as a function, with its defaults for the axes (step-by-step
@@ -258,10 +258,12 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
         timeout: seconds each run's process may take; None: no limit.
         progress: progress bars.
         workers: runs executed side by side, this machine's cores shared among them
-            (:func:`synthcal.eval.harness.run_threads`). torch's thread count orders its
-            sums: the scores agree with one worker's up to that rounding, which a long
-            training can grow into another kept epoch (docs/benchmark.md); each
-            ``run.json`` records its threads (``machine``).
+            (:func:`synthcal.eval.harness.run_threads`) unless ``threads`` is given.
+        threads: torch threads of each run, whatever ``workers`` (None: the cores shared
+            out). torch's thread count orders its sums: scores agree to the digit only
+            between runs at the same count, and a long training can grow the rounding into
+            another kept epoch (docs/benchmark.md); a fixed count makes them independent of
+            ``workers``. Each ``run.json`` records its threads (``machine``).
 
     Returns:
         one row per finished run of this call: ``dataset``, ``model``, ``seed``, the
@@ -270,6 +272,7 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
 
     Raises:
         SplitError: a missing store or undrawn seed. EstimatorError: an unknown estimator.
+        ValueError: ``threads`` is not a positive count.
 
     Example:
         >>> import tempfile, synthcal
@@ -289,7 +292,7 @@ def bench(data: str | Path, datasets: Sequence[str], estimators: Sequence[str], 
     runs = expand_runs(data, datasets, estimators, seeds, profile, training.settings(),
                        segmentations=(training.segmentation,), device=device, limits=limits,
                        dictionary={label: loaded.dictionary(label, profile) for label in datasets})
-    frame = run_sweep(runs, results, progress=progress, timeout=timeout, workers=workers)
+    frame = run_sweep(runs, results, progress=progress, timeout=timeout, workers=workers, threads=threads)
     return frame[frame["run_id"].isin({run.id for run in runs})].reset_index(drop=True)
 
 

@@ -615,7 +615,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from synthcal.config import load_config
     from synthcal.estimators.options import merge_options
     from synthcal.eval.harness import check_device, expand_runs, is_finished, plan_lines, run_sweep
-    from synthcal.eval.reproduction import missed_class_runs
+    from synthcal.eval.reproduction import missed_class_runs, tied_selection_runs
     from synthcal.eval.tables import counted
 
     _check_folder(args.results, "--results")
@@ -641,14 +641,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     print("\n".join(plan_lines(runs)), flush=True)
     if args.scheduler is None:
         to_run = {run.id for run in todo}
-        _warn_thread_counts(args.results, [run for run in runs if run.id not in to_run], args.workers)
+        _warn_thread_counts(args.results, [run for run in runs if run.id not in to_run], args.workers, args.threads)
     if not _preview_bench(todo, args):
         print("synthcal: no run started", file=sys.stderr)
         return 1
     started = time.perf_counter()
     try:
         frame = run_sweep(runs, args.results, scheduler=args.scheduler, progress=_progress(args),
-                          timeout=args.timeout or None, rerun=args.rerun, workers=args.workers)
+                          timeout=args.timeout or None, rerun=args.rerun, workers=args.workers,
+                          threads=args.threads)
     except KeyboardInterrupt:  # the running run's process is already killed; finished runs stay
         print(f"synthcal: interrupted; finished runs are kept in {args.results}: run the same command again "
               f"to resume", file=sys.stderr)
@@ -661,7 +662,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     _print_tables(frame, None, "md", False, results=args.results)
     for row in failed.itertuples():
         print(f"failed: {row.run_id}: {row.error or 'no reason recorded'}")
-    for line in missed_class_runs(args.results, frame):
+    for line in missed_class_runs(args.results, frame) + tied_selection_runs(args.results, frame):
         print(line)
     if len(failed):
         print(f"{len(failed)} run(s) failed; fix the cause and run the same command again: failed runs are run "
@@ -669,7 +670,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 1 if len(failed) else 0
 
 
-def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int) -> None:
+def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int, fixed: int | None) -> None:
     """One line when reused runs trained at another torch thread count than this sweep's runs get.
 
     The thread count orders torch's sums; over a training the rounding can move the epoch
@@ -677,14 +678,14 @@ def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int) -> N
     """
     from synthcal.eval.harness import recorded_threads, run_threads
 
-    threads = run_threads(workers)
+    threads = run_threads(workers, fixed)
     other = {count: n for count, n in recorded_threads(results, reused).items() if count != threads}
     if other:
         listed = ", ".join(f"{n} at {count}" for count, n in sorted(other.items()))
         print(f"bench: {sum(other.values())} of the {len(reused)} reused runs trained at another torch thread "
-              f"count ({listed}) than this sweep's runs get ({threads}, --workers {workers}): their figures "
-              f"compare to the new ones only up to the thread count's rounding (docs/benchmark.md); "
-              f"--workers sets it", flush=True)
+              f"count ({listed}) than this sweep's runs get ({threads}, "
+              f"{f'--threads {fixed}' if fixed else f'--workers {workers}'}): their figures compare to the new "
+              f"ones only up to the thread count's rounding (docs/benchmark.md); --threads sets it", flush=True)
 
 
 def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
@@ -714,7 +715,7 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
 
 def _cmd_table(args: argparse.Namespace) -> None:
     from synthcal.eval.report import ReportError, finished_runs
-    from synthcal.eval.reproduction import missed_class_runs
+    from synthcal.eval.reproduction import missed_class_runs, tied_selection_runs
     from synthcal.eval.tables import failed_runs
 
     try:
@@ -729,8 +730,8 @@ def _cmd_table(args: argparse.Namespace) -> None:
     else:
         _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric, args.results)
     # Failed runs count in the means (IoU 0, completeness 0); say which and why, off stdout for CSV; so too
-    # runs whose UNet lost a class (their pipeline lacks it).
-    for line in failed_runs(frame) + missed_class_runs(args.results, frame):
+    # runs whose UNet lost a class (their pipeline lacks it) and runs whose validation tied every candidate.
+    for line in failed_runs(frame) + missed_class_runs(args.results, frame) + tied_selection_runs(args.results, frame):
         if args.format == "csv":
             print(line, file=sys.stderr)
         else:
@@ -1132,9 +1133,14 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="run every run again, finished ones too (default: reuse the finished runs of the same "
                         "dataset, settings and estimator code)")
     p.add_argument("--workers", type=_positive_int, default=1,
-                   help="runs executed side by side, this machine's cores shared among them (torch threads per "
-                        "run: cores // WORKERS, at most OMP_NUM_THREADS if set); the thread count orders torch's "
-                        "sums, so a trained model's figures move with it (docs/benchmark.md) (default 1)")
+                   help="runs executed side by side, this machine's cores shared among them unless --threads "
+                        "is given (default 1)")
+    p.add_argument("--threads", type=_positive_int, default=None, metavar="N",
+                   help="torch threads of each run, whatever --workers (default: cores // WORKERS, at most "
+                        "OMP_NUM_THREADS if set; on a --scheduler cluster, torch's default); the thread count "
+                        "orders torch's sums, so a trained model's figures move with it: fix it (the "
+                        "reproduction sweeps: --threads 1) for figures that --workers does not change "
+                        "(docs/benchmark.md)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_yes(p, f"above {CONFIRM_SECONDS / 60:g} min")
     _add_config(p)

@@ -250,6 +250,17 @@ def test_workers_must_be_positive(tmp_path, capsys, command, value):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("value", ["0", "-2", "two"])
+def test_bench_threads_must_be_positive(tmp_path, capsys, value):
+    argv = ["bench", "--data", str(tmp_path / "d"), "--datasets", "soccer", "--estimator", "identity",
+            "--results", str(tmp_path / "r"), "--threads", value]
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    assert f"argument --threads: must be an integer ≥ 1 (value '{value}')" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
 @pytest.mark.parametrize(("name", "magic"), [("m.jpg", b"\xff\xd8\xff"), ("m.JPEG", b"\xff\xd8\xff"),
                                              ("m.png", b"\x89PNG\r\n\x1a\n")])
 def test_show_writes_the_format_its_name_says(smoke_stores, tmp_path, capsys, name, magic):

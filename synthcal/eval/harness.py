@@ -300,7 +300,7 @@ def _estimate_columns(estimates: Any, n: int) -> np.ndarray:
 
 def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = None, scheduler: str | None = None,
               progress: bool = True, timeout: float | None = DEFAULT_TIMEOUT, rerun: bool = False,
-              workers: int = 1) -> pd.DataFrame:
+              workers: int = 1, threads: int | None = None) -> pd.DataFrame:
     """Execute every run not finished ok (every run: ``rerun``), locally or on a Dask cluster; return all results.
 
     Exchange folders a killed sweep left in ``results`` (:func:`sweep_exchanges`) are removed first.
@@ -315,17 +315,23 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
         timeout: seconds each run's process may take; None or 0: no limit.
         rerun: run the finished runs again too (their results are replaced).
         workers: runs executed side by side here, each with :func:`run_threads` torch threads.
+        threads: torch threads of each run, here or on the cluster, whatever ``workers``; None:
+            here, the cores shared out (:func:`run_threads`), on a cluster, torch's default.
             A run's torch thread count changes the order of its sums, not the run's identity:
-            over a training the rounding can move the epoch validation keeps, so the scores
-            need not agree with one worker's to the digit (docs/benchmark.md).
+            over a training the rounding can move the epoch validation keeps, so scores agree
+            to the digit only between runs at the same count: a fixed ``threads`` makes a
+            sweep's figures independent of ``workers`` (docs/benchmark.md).
 
     Returns:
         :func:`collect_results` of the folder.
 
     Raises:
+        ValueError: ``threads`` is not a positive count.
         KeyboardInterrupt: Ctrl-C; the running runs' processes are killed first, the
             finished runs stay and a rerun resumes with the others.
     """
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise ValueError(f"threads: expected a positive count of torch threads per run, got {threads!r}")
     results = Path(results)
     runs = [with_device(run, device) for run in runs]
     # Now, not after the first run: a results folder that cannot be written stops the sweep at once.
@@ -339,30 +345,33 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
     try:
         if scheduler is not None:  # on a cluster: no estimator bars
             execute = functools.partial(execute_run, results=str(results), progress=False, timeout=timeout,
-                                        rerun=rerun)
+                                        rerun=rerun, threads=threads)
             for folder in dispatch(execute, todo, workers=1, scheduler=scheduler):
                 bar.set_postfix_str(folder.name)
                 bar.update()
         else:
-            _run_here(todo, results, timeout, max(1, workers), bar, progress, rerun)
+            _run_here(todo, results, timeout, max(1, workers), run_threads(workers, threads), bar, progress, rerun)
     finally:  # on Ctrl-C too: the bar's line ends before whatever is printed next
         bar.close()
     return collect_results(results)
 
 
-def run_threads(workers: int) -> int:
-    """torch threads of each of ``workers`` runs executed side by side: this machine's cores shared out, at least 1,
-    and at most ``OMP_NUM_THREADS`` where the user set it to a positive count (two sweeps side by side on one
-    machine: ``OMP_NUM_THREADS=1``; a run's process is given its count in its environment, so without this cap the
-    user's setting would be overridden)."""
+def run_threads(workers: int, threads: int | None = None) -> int:
+    """torch threads of each of ``workers`` runs executed side by side here: ``threads`` where given (the user's
+    ``--threads``); else this machine's cores shared out, at least 1, and at most ``OMP_NUM_THREADS`` where the
+    user set it to a positive count (two sweeps side by side on one machine: ``OMP_NUM_THREADS=1``; a run's
+    process is given its count in its environment, so without this cap the user's setting would be overridden)."""
+    if threads is not None:
+        return threads
     threads = max(1, usable_cores() // max(1, workers))
     cap = os.environ.get("OMP_NUM_THREADS", "").strip()
     return min(threads, int(cap)) if cap.isdigit() and int(cap) > 0 else threads
 
 
-def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers: int, bar: tqdm,
+def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers: int, threads: int, bar: tqdm,
               progress: bool, rerun: bool) -> None:
-    """Execute runs ``workers`` at a time, each in its own process started from a thread of ours.
+    """Execute runs ``workers`` at a time, each in its own process (with ``threads`` torch threads) started from
+    a thread of ours.
 
     The bar names the runs executing. The estimators draw their own bars only when one run
     executes at a time: several processes drawing on the same line would garble it.
@@ -383,7 +392,7 @@ def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers
         label(run.id, True)
         try:
             execute_run(run, results, progress=progress and workers == 1, timeout=timeout, rerun=rerun,
-                        threads=run_threads(workers), processes=processes)
+                        threads=threads, processes=processes)
         finally:
             label(run.id, False)
 

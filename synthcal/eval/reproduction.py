@@ -75,7 +75,7 @@ from synthcal.eval.tables import (
 )
 
 __all__ = ["BASELINE", "CELL_KEYS", "VERDICTS", "UNDECIDED", "verdict", "run_choices", "frame_choices",
-           "missed_class_runs", "report_frame", "format_report"]
+           "missed_class_runs", "tied_selection_runs", "report_frame", "format_report"]
 
 BASELINE = "sha2020"
 CELL_KEYS = ("dataset", "training", "loss", "matching_score", "segmentation", "dictionary", "profile", "model")
@@ -153,6 +153,33 @@ def missed_class_runs(results: str | Path, frame: pd.DataFrame) -> list[str]:
         if isinstance(missed, str) and missed != "none":
             lines.append(f"UNet missed class {missed.replace('+', ', ')}: {run_id} (docs/decisions.md, "
                          f"\"The UNet's loss\")")
+    return lines
+
+
+def tied_selection_runs(results: str | Path, frame: pd.DataFrame) -> list[str]:
+    """One line per run whose validation scored every candidate of a grid alike: its choice is a tie, not a
+    preference (its record's ``selection["scores"]``, compared exactly).
+
+    A model whose validation loss no longer depends on the setting (mixed-5's collapsed STNs: every learning
+    rate ends on the same loss to the last digit, docs/reproduction.md) still reports a "chosen" rate and
+    epoch; ``bench`` and ``table`` say so after the tables, as for failed runs.
+
+    Args:
+        results: the results folder (a runs archive keeps no scores: no line).
+        frame: its runs (:func:`synthcal.eval.harness.collect_results`; no ``run_id``: no line).
+
+    Returns:
+        ``"validation could not tell the learning_rate values apart (…): <run id> (…)"`` lines, in the frame's order.
+    """
+    lines: list[str] = []
+    if "run_id" not in frame or not Path(results).is_dir():
+        return lines
+    for run_id in frame["run_id"].astype(str):
+        scores = ((_record(Path(results), run_id).get("selection") or {}).get("scores") or {})
+        for key, values in scores.items() if isinstance(scores, dict) else ():
+            if isinstance(values, list) and len(values) > 1 and len(set(map(repr, values))) == 1:
+                lines.append(f"validation could not tell the {key} values apart (each scored {values[0]!r}): "
+                             f"{run_id} (its chosen {key} is a tie; docs/reproduction.md, mixed-5)")
     return lines
 
 

@@ -8,9 +8,11 @@ from pathlib import Path
 
 def write_run(results: Path, model: str, loss: str | None, seed: int, iou: float, lr: float | None,
                seconds: float, dataset: str = "intersection-1", unet_epochs: int | None = None,
-               missed: list[int] | None = None, threads: int | None = None) -> None:
+               missed: list[int] | None = None, threads: int | None = None,
+               scores: list[float] | None = None) -> None:
     """One finished run's record; ``lr`` None: a run that chose nothing (no ``selection``); ``threads``: the torch
-    threads its ``machine`` record names (None: a record without one)."""
+    threads its ``machine`` record names (None: a record without one); ``scores``: validation's score of each
+    learning rate of the grid (None: none recorded)."""
     run_id = f"{dataset}_{model}_{loss}_s{seed}"
     folder = results / "runs" / run_id
     folder.mkdir(parents=True)
@@ -19,7 +21,8 @@ def write_run(results: Path, model: str, loss: str | None, seed: int, iou: float
     record = {"run": run, "id": run_id, "status": "ok", "seconds": seconds,
               "summary": {"iou": iou, "completeness": 1.0, "n_images": 8},
               "selection": {"chosen": {"learning_rate": lr, "stn_epochs": 10 + seed,
-                                       **({"unet_epochs": unet_epochs} if unet_epochs else {})}} if lr else None,
+                                       **({"unet_epochs": unet_epochs} if unet_epochs else {})},
+                            **({"scores": {"learning_rate": scores}} if scores else {})} if lr else None,
               **({"history": {"unet-missed-classes": missed}} if missed is not None else {}),
               **({"machine": {"torch_threads": threads}} if threads is not None else {})}
     (folder / "run.json").write_text(json.dumps(record))

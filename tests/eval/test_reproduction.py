@@ -34,6 +34,18 @@ def _paper(model: str, loss: str) -> float:
     return float(hit["iou_percent"].iloc[0])
 
 
+def test_runs_whose_validation_tied_every_rate_are_named_after_the_tables(tmp_path, capsys):
+    """A run whose every learning rate scored the same on validation chose by a tie (mixed-5's collapsed STNs)."""
+    _write_run(tmp_path, "sha2020", "top-mse", 0, 0.1, 0.0001, 100.0, scores=[1.317, 1.317, 1.317])
+    _write_run(tmp_path, "sha2020", "top-mse", 1, 0.1, 0.0003, 100.0, scores=[1.317, 1.316, 1.317])
+    _write_run(tmp_path, "proposed", "top-mse", 0, 0.1, 0.0001, 100.0)
+    assert main(["table", str(tmp_path)]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if "could not tell" in line]
+    assert lines == ["validation could not tell the learning_rate values apart (each scored 1.317): "
+                     "intersection-1_sha2020_top-mse_s0 (its chosen learning_rate is a tie; docs/reproduction.md, "
+                     "mixed-5)"]
+
+
 def test_report_csv_interval_and_verdict_match_a_hand_computation(tmp_path, capsys):
     for loss, shift in SHIFTS.items():
         for seed in SEEDS:

@@ -1,0 +1,57 @@
+"""What the views of mixed-5's estimates look like (reproduction.md, "The paper's mixes for intersections 4 and 5").
+
+For seeds 0 and 1 of each model, from each run's ``metrics.csv`` homographies (bird's-eye pixel -> image pixel, SPEC
+§2; an estimate whose bottom-centre pixel sees no ground is flipped, as the SPEC's sign rule says), over a lattice of
+every 4th pixel of the 256 x 144 image: the share of pixels that see the ground (depth > 0), the share that see
+intersection-5's scene, and, over the first 100 test images, the median share of a view in its most common class
+(0 where a pixel sees no ground of the scene). The store's own cameras are the reference.
+
+Run in the sweep folder (``data/``, ``results/``): ``python mixed5_views.py``.
+"""
+
+import glob
+
+import numpy as np
+import pandas as pd
+import zarr
+
+WIDTH, HEIGHT = 256, 144
+COLUMNS = [f"h{i}{j}" for i in range(3) for j in range(3)]
+MODELS = ("retrieved", "template", "sha2020_step-by-step_top-mse", "proposed_step-by-step_top-mse",
+          "sha2020_step-by-step_mse", "proposed_step-by-step_mse")
+
+store = zarr.open_group("data/intersection-5.zarr", mode="r")
+semantic = np.asarray(store["scene"]["semantic"][:])
+us, vs = np.meshgrid(np.arange(0, WIDTH, 4), np.arange(0, HEIGHT, 4))
+pixels = np.stack([us.ravel(), vs.ravel(), np.ones(us.size)])
+bottom_centre = np.array([(WIDTH - 1) / 2, HEIGHT - 1, 1.0])
+
+
+def view(homography: np.ndarray) -> tuple[float, float, np.ndarray]:
+    """Share seeing ground, share seeing the scene, and each lattice pixel's class."""
+    h = homography.reshape(3, 3)
+    if np.linalg.solve(h, bottom_centre)[2] < 0:
+        h = -h
+    ground = np.linalg.solve(h, pixels)
+    ahead = ground[2] > 0
+    depth = np.where(ahead, ground[2], 1.0)
+    u = np.where(ahead, np.round(ground[0] / depth), -1).astype(np.int64)
+    v = np.where(ahead, np.round(ground[1] / depth), -1).astype(np.int64)
+    inside = ahead & (u >= 0) & (v >= 0) & (u < semantic.shape[1]) & (v < semantic.shape[0])
+    classes = np.where(inside, semantic[np.clip(v, 0, semantic.shape[0] - 1), np.clip(u, 0, semantic.shape[1] - 1)], 0)
+    return float(ahead.mean()), float(inside.mean()), classes
+
+
+def summary(homographies: np.ndarray) -> str:
+    views = [view(h) for h in homographies if np.isfinite(h).all()]
+    top = [np.bincount(classes, minlength=4).max() / classes.size for _, _, classes in views[:100]]
+    return (f"ground {np.mean([v[0] for v in views]):.3f}  scene {np.mean([v[1] for v in views]):.3f}  "
+            f"top class {np.median(top):.3f}")
+
+
+truth = np.asarray(store["homography"][:500]).reshape(-1, 9)
+print(f"{'the store (first 500 cameras)':32s}    {summary(truth)}")
+for model in MODELS:
+    for seed in (0, 1):
+        folder = glob.glob(f"results/runs/mixed-5_{model}*_s{seed}_*")[0]
+        print(f"{model:32s} s{seed} {summary(pd.read_csv(f'{folder}/metrics.csv')[COLUMNS].to_numpy(float))}")

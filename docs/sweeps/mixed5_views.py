@@ -20,7 +20,8 @@ import zarr
 WIDTH, HEIGHT = 256, 144
 COLUMNS = [f"h{i}{j}" for i in range(3) for j in range(3)]
 MODELS = ("retrieved", "template", "sha2020_step-by-step_top-mse", "proposed_step-by-step_top-mse",
-          "sha2020_step-by-step_mse", "proposed_step-by-step_mse")
+          "sha2020_step-by-step_mse", "proposed_step-by-step_mse", "sha2020_step-by-step_dice",
+          "proposed_step-by-step_dice")
 
 store = zarr.open_group("data/intersection-5.zarr", mode="r")
 semantic = np.asarray(store["scene"]["semantic"][:])
@@ -57,5 +58,8 @@ truth = np.asarray(store["homography"][:500]).reshape(-1, 9)
 print(f"{'the store (first 500 cameras)':32s}    {summary(truth)}")
 for model in MODELS:
     for seed in range(5):
-        folder = glob.glob(f"results/runs/mixed-5_{model}*_s{seed}_*")[0]
+        folders = glob.glob(f"results/runs/mixed-5_{model}_*_s{seed}_*/metrics.csv")
+        if not folders:  # not run (yet)
+            continue
+        folder = folders[0].removesuffix("/metrics.csv")
         print(f"{model:32s} s{seed} {summary(pd.read_csv(f'{folder}/metrics.csv')[COLUMNS].to_numpy(float))}")

@@ -147,8 +147,13 @@ step $S bench --datasets intersection-2 --estimator retrieved oracle-template te
 step $S bench --datasets mixed-4 mixed-5 --estimator sha2020 proposed retrieved oracle-template template --loss top-mse mse $SEL $COMMON --workers 2
 # ---- 2026-11-27 (fourteenth session) stopped here: mixed-4 done (35 runs, archive docs/results/runs_fourteenth.csv;
 #      sha2020 385-465 s/run, proposed 527-795 s/run beside it); mixed-5 under way (finished runs are reused) ----
-# ---- 2026-11-27 (fifteenth session) stopped here: mixed-5 done (35 runs, archive docs/results/runs_fifteenth.csv;
-#      sha2020 550-563 s/run, proposed 630-659 s/run); 14 under way (finished runs are reused) ----
+# 15c. (fifteenth session) mixed-5 with Dice first: an experiment showed the MSE-type losses collapse there and Dice
+#      does not (reproduction.md); Top-Dice after step 14
+step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
+# ---- 2026-11-27 (fifteenth session) stopped here: mixed-5 done with Top-MSE and MSE (35 runs) and sha2020 with Dice
+#      (5 runs, 373-627 s/run), archive docs/results/runs_fifteenth.csv; proposed with Dice under way (842 s/run),
+#      then 14, then mixed-5 Top-Dice, then 16 (finished runs are reused) ----
+step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 # 14. the rest of end-to-end and the Dice losses on intersection-1 and -2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2

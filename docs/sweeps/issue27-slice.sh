@@ -153,8 +153,11 @@ step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss dice $SEL $
 # ---- 2026-11-27 (fifteenth session) stopped here: mixed-5 done with Top-MSE and MSE (35 runs) and sha2020 with Dice
 #      (5 runs, 373-627 s/run), archive docs/results/runs_fifteenth.csv; proposed with Dice under way (842 s/run),
 #      then 14, then mixed-5 Top-Dice, then 16 (finished runs are reused) ----
+# ---- 2026-11-27 (sixteenth session): the proposed model's mixed-5 Dice runs done (628-1111 s/run), both models' Dice
+#      runs archived together in docs/results/runs_sixteenth.csv; step 14 split so the new cells (MSE) come first ----
 # 14. the rest of end-to-end and the Dice losses on intersection-1 and -2
-step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
 # 15d. (fifteenth session) mixed-5 with Top-Dice
 step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2

@@ -158,6 +158,8 @@ step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss dice $SEL $
 # 14. the rest of end-to-end and the Dice losses on intersection-1 and -2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
+# ---- 2026-11-27 (sixteenth session) stopped here: end-to-end with MSE done on intersections 1 and 2 (20 runs,
+#      552-783 s/run, archive docs/results/runs_sixteenth.csv); the Top-MSE end-to-end step below under way ----
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
 # 15d. (fifteenth session) mixed-5 with Top-Dice
 step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2

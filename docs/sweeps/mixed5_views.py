@@ -17,6 +17,8 @@ import numpy as np
 import pandas as pd
 import zarr
 
+from synthcal.generate.camera import orient_homography
+
 WIDTH, HEIGHT = 256, 144
 COLUMNS = [f"h{i}{j}" for i in range(3) for j in range(3)]
 MODELS = ("retrieved", "template", "sha2020_step-by-step_top-mse", "proposed_step-by-step_top-mse",
@@ -27,14 +29,10 @@ store = zarr.open_group("data/intersection-5.zarr", mode="r")
 semantic = np.asarray(store["scene"]["semantic"][:])
 us, vs = np.meshgrid(np.arange(0, WIDTH, 4), np.arange(0, HEIGHT, 4))
 pixels = np.stack([us.ravel(), vs.ravel(), np.ones(us.size)])
-bottom_centre = np.array([(WIDTH - 1) / 2, HEIGHT - 1, 1.0])
 
 
-def view(homography: np.ndarray) -> tuple[float, float, np.ndarray]:
-    """Share seeing ground, share seeing the scene, and each lattice pixel's class."""
-    h = homography.reshape(3, 3)
-    if np.linalg.solve(h, bottom_centre)[2] < 0:
-        h = -h
+def view(h: np.ndarray) -> tuple[float, float, np.ndarray]:
+    """Share seeing ground, share seeing the scene, and each lattice pixel's class, for an oriented (3, 3) ``h``."""
     ground = np.linalg.solve(h, pixels)
     ahead = ground[2] > 0
     depth = np.where(ahead, ground[2], 1.0)
@@ -46,9 +44,10 @@ def view(homography: np.ndarray) -> tuple[float, float, np.ndarray]:
 
 
 def summary(homographies: np.ndarray) -> str:
-    homographies = homographies[np.isfinite(homographies).all(axis=1)]
-    behind = np.mean([np.linalg.solve(h.reshape(3, 3), bottom_centre)[2] < 0 for h in homographies])
-    views = [view(h) for h in homographies]
+    homographies = homographies[np.isfinite(homographies).all(axis=1)].reshape(-1, 3, 3)
+    oriented = orient_homography(homographies, (WIDTH, HEIGHT))  # the SPEC's sign rule, as the scorer applies it
+    behind = np.mean((oriented != homographies).any(axis=(1, 2)))  # flipped: the view as returned saw no ground
+    views = [view(h) for h in oriented]
     top = [np.bincount(classes, minlength=4).max() / classes.size for _, _, classes in views[:100]]
     return (f"behind {behind:.3f}  ground {np.mean([v[0] for v in views]):.3f}  scene {np.mean([v[1] for v in views]):.3f}  "
             f"top class {np.median(top):.3f}")

@@ -160,6 +160,8 @@ step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 propo
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
 # ---- 2026-11-27 (sixteenth session) stopped here: end-to-end with MSE done on intersections 1 and 2 (20 runs,
 #      552-783 s/run, archive docs/results/runs_sixteenth.csv); the Top-MSE end-to-end step below under way ----
+# ---- 2026-11-27 (seventeenth session): the Top-MSE end-to-end step above done (intersection-1's 9 runs again,
+#      509-984 s/run, archive docs/results/runs_seventeenth.csv); the sweep went on with 15d, then 16 ----
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
 # 15d. (fifteenth session) mixed-5 with Top-Dice
 step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2

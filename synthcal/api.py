@@ -346,7 +346,9 @@ def paired_differences(results: str | Path, a: str, b: str, *, metric: str = "io
             for another key (``loss=top-mse``, ``segmentation=unet``).
         metric: the reading.
         against: side B's results folder, for runs kept apart (another setting or code):
-            they pair with side A's on the dataset, seed and every other key.
+            they pair with side A's on the dataset, seed and every other key. ``paper``
+            compares the sides' own values where they differ (``loss=top-mse`` against
+            ``loss=mse`` kept in two archives); none where they are equal.
 
     Returns:
         one row per cell (:func:`synthcal.eval.statistics.paired_frame`): the other keys,

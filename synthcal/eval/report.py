@@ -361,14 +361,19 @@ def paired_sides(frame: pd.DataFrame, sides: Sequence[str]) -> tuple[str, str, s
     return keys[0], values[0], values[1]
 
 
+# (frame, key, a, b, per_image, claim): what paired_frame reads; claim None within one folder.
+_Paired = tuple[pd.DataFrame, str, str, str, Callable[[str], pd.Series | None] | None, tuple[str, str] | None]
+
+
 def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: Path, other: pd.DataFrame,
-                    other_results: Path) -> tuple[pd.DataFrame, str, str, str, Callable[[str], pd.Series | None]]:
+                    other_results: Path) -> _Paired:
     """Side A's runs from ``results``, side B's from ``other_results``, as one frame in which the compared
     key's values name their folder (``unet (results-unet2)``), so that the same cell in both folders pairs.
 
     Returns:
-        ``(frame, key, a, b, per_image)``: run ids prefixed ``a:`` / ``b:`` (plain names hold no ``:``),
-        which ``per_image`` reads from the side's folder.
+        ``(frame, key, a, b, per_image, claim)``: run ids prefixed ``a:`` / ``b:`` (plain names hold no
+        ``:``), which ``per_image`` reads from the side's folder; ``claim``, the sides' own values (the
+        paper's figures compare them where they differ: ``loss=top-mse`` against ``loss=mse``).
     """
     if results.resolve() == other_results.resolve():
         raise ReportError(f"--against {other_results} is the results folder itself: pair within one folder with "
@@ -388,30 +393,28 @@ def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, resu
     parts = [part.loc[part[key] == value].assign(**{key: label, "run_id": prefix + part["run_id"].astype(str)})
              for part, value, label, prefix in ((frame, a, labels[0], "a:"), (other, b, labels[1], "b:"))]
     readers = {"a": per_image_reader(results, metric), "b": per_image_reader(other_results, metric)}
-    return pd.concat(parts, ignore_index=True), key, *labels, lambda run_id: readers[run_id[0]](run_id[2:])
-
-
-_Paired = tuple[pd.DataFrame, str, str, str, Callable[[str], pd.Series | None] | None, bool]
+    return (pd.concat(parts, ignore_index=True), key, *labels, lambda run_id: readers[run_id[0]](run_id[2:]),
+            (a, b))
 
 
 def _paired_inputs(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: str | Path | None,
                    other: pd.DataFrame | None, other_results: str | Path | None) -> _Paired:
     """What :func:`synthcal.eval.statistics.paired_frame` reads for ``--paired A B [--against OTHER]``:
-    ``(frame, key, a, b, per_image, across)``, references spread over the training keys."""
+    ``(frame, key, a, b, per_image, claim)`` (``claim``: None within one folder), references spread over
+    the training keys."""
     frame = one_label(frame)
-    across = None
     if other is not None:
         if results is None or other_results is None:
             raise ReportError("--against: both results folders are needed (their runs' per-image scores)")
-        frame, key, a, b, across = _across_folders(frame, sides, metric, Path(results), one_label(other),
-                                                     Path(other_results))
+        frame, key, a, b, per_image, claim = _across_folders(frame, sides, metric, Path(results),
+                                                             one_label(other), Path(other_results))
     else:
         key, a, b = paired_sides(frame, sides)
+        per_image, claim = None if results is None else per_image_reader(results, metric), None
     # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
     # not over the key compared (its one value would be paired with itself).
     frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
-    per_image = across or (None if results is None else per_image_reader(results, metric))
-    return frame, key, a, b, per_image, across is not None
+    return frame, key, a, b, per_image, claim
 
 
 def paired_numbers(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: str | Path | None = None,
@@ -421,9 +424,9 @@ def paired_numbers(frame: pd.DataFrame, sides: Sequence[str], metric: str, resul
     Raises:
         ReportError: as :func:`paired_report`.
     """
-    frame, key, a, b, per_image, _ = _paired_inputs(frame, sides, metric, results, other, other_results)
+    frame, key, a, b, per_image, claim = _paired_inputs(frame, sides, metric, results, other, other_results)
     try:
-        return paired_frame(frame, a, b, key, metric, _ALIASES, per_image)
+        return paired_frame(frame, a, b, key, metric, _ALIASES, per_image, claim=claim)
     except ValueError as error:
         raise ReportError(str(error)) from None
 
@@ -440,17 +443,18 @@ def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
         other, other_results: ``--against``: side B's runs and their folder (a change of
             settings or code kept in a folder of its own); side A's are read from ``frame``.
             Runs pair on every other key and the seed; the compared key's values name
-            their folder, and there is no paper figure.
+            their folder, and the paper's figure is that of the sides' own values where
+            they differ (``loss=top-mse loss=mse``), none where they are equal.
 
     Raises:
         ReportError: as :func:`paired_sides`, or no pairs to compare.
     """
-    frame, key, a, b, per_image, across = _paired_inputs(frame, sides, metric, results, other, other_results)
+    frame, key, a, b, per_image, claim = _paired_inputs(frame, sides, metric, results, other, other_results)
     try:
-        text = format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES, per_image=per_image)
+        text = format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES, per_image=per_image, claim=claim)
     except ValueError as error:
         raise ReportError(str(error)) from None
-    if not across or fmt == "csv":
+    if claim is None or fmt == "csv":
         return text
     note = (f"Across two results folders: A, {a}, the runs of {results}; B, {b}, the runs of {other_results}. "
             f"Paired on the dataset, seed and the other keys above, A and B also differ in whatever settings "

@@ -227,6 +227,7 @@ def paired_frame(
     aliases: Mapping[str, str] | None = None,
     per_image: PerImage | None = None,
     resamples: int = BOOTSTRAP_RESAMPLES,
+    claim: tuple[str, str] | None = None,
 ) -> pd.DataFrame:
     """Per-seed paired differences A − B, summarised per cell with their confidence intervals.
 
@@ -240,6 +241,10 @@ def paired_frame(
         per_image: a run id → its per-image values of ``value``
             (:data:`PerImage`); None: no bootstrap interval.
         resamples: bootstrap resamples.
+        claim: the two values of ``key`` whose paper figures give ``paper``; None: ``(a, b)``.
+            Across two results folders ``a`` and ``b`` are labels that name their folder
+            (``top-mse (runs_x.csv)``) and the claim is the sides' own values (``top-mse``,
+            ``mse``); where those are equal there is no claim (the paper compares no two folders).
 
     Returns:
         One row per cell: the other pair keys, ``mean`` and ``std`` (ddof = 1; NaN
@@ -276,8 +281,9 @@ def paired_frame(
                      "a_wins": int(group["a_wins"].sum()), "t_low": t_low, "t_high": t_high, "p": p,
                      "boot_low": boot[0], "boot_high": boot[1]})
     out = pd.DataFrame(rows)
-    compare = value in READINGS
-    out["paper"] = [_paper_difference(row, key, a, b, aliases or {}) if compare else np.nan
+    paper_a, paper_b = claim or (a, b)
+    compare = value in READINGS and paper_a != paper_b
+    out["paper"] = [_paper_difference(row, key, paper_a, paper_b, aliases or {}) if compare else np.nan
                     for row in out[others].to_dict("records")]
     out["verdict"] = [verdict(lo, hi, d) for lo, hi, d in zip(out["t_low"], out["t_high"], out["paper"], strict=True)]
     out.attrs.update(a=a, b=b, key=key, value=value, resamples=resamples)
@@ -308,6 +314,7 @@ def format_paired(
     aliases: Mapping[str, str] | None = None,
     per_image: PerImage | None = None,
     resamples: int = BOOTSTRAP_RESAMPLES,
+    claim: tuple[str, str] | None = None,
 ) -> str:
     """:func:`paired_frame` as Markdown, LaTeX or CSV text.
 
@@ -319,7 +326,7 @@ def format_paired(
     """
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
-    cells = paired_frame(results, a, b, key, value, aliases, per_image, resamples)
+    cells = paired_frame(results, a, b, key, value, aliases, per_image, resamples, claim)
     others = [k for k in PAIR_KEYS if k != key]
     varying = [k for k in others if k == "dataset" or cells[k].nunique() > 1]
     constants = {k: cells[k].iloc[0] for k in others if k not in varying and cells[k].iloc[0] != MISSING}

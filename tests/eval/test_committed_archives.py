@@ -3,7 +3,8 @@
 The sweep folders do not outlive a session; these archives are what is left of the runs. Two things must hold
 for the report to stay honest: today's code still reads every archive, and every verdict docs/reproduction.md
 prints for an archived cell is the one the archive gives — the same interval, to the printed digit, followed
-by the same verdict in a verdict table.
+by the same verdict in a verdict table; so must the paired comparisons of two losses it quotes from them
+(``--paired loss=A loss=B``, across two archives with ``--against``).
 """
 
 from __future__ import annotations
@@ -66,3 +67,34 @@ def test_the_rerun_cell_reproduces_the_lost_folders_figures(metric: str, archive
         assert first[column].iloc[0] == again[column].iloc[0], column
     for column in ("mean", "std"):  # the same per-image scores: only the order of a sum may move the 16th digit
         assert first[column].iloc[0] == pytest.approx(again[column].iloc[0], rel=1e-12, abs=0), column
+
+
+# The paired comparisons of two losses reproduction.md quotes from the archives ("The topological loss against
+# its conventional version"): side A's archive, side B's (None: the same one), the two losses.
+LOSS_PAIRS = [
+    ("runs_fourteenth.csv", None, "top-mse", "mse"),
+    ("runs_fifteenth.csv", None, "top-mse", "mse"),
+    ("runs_eleventh.csv", None, "top-dice", "dice"),
+    ("runs_tenth.csv", "runs_sixteenth.csv", "top-mse", "mse"),
+    ("runs_seventeenth.csv", "runs_sixteenth.csv", "top-mse", "mse"),
+]
+
+
+@pytest.mark.parametrize("metric", ["iou", "iou_weighted"])
+@pytest.mark.parametrize(("archive", "against", "a", "b"), LOSS_PAIRS)
+def test_every_judged_loss_pair_of_the_archives_is_quoted_with_its_verdict(
+    metric: str, archive: str, against: str | None, a: str, b: str
+):
+    results = ROOT / "docs" / "results"
+    cells = synthcal.paired_differences(results / archive, f"loss={a}", f"loss={b}", metric=metric,
+                                        against=None if against is None else results / against)
+    judged = cells[cells["verdict"].isin([*VERDICTS, UNDECIDED])]
+    assert not judged.empty, f"{archive}: no judged {a} − {b} cell"
+    text = REPORT.read_text(encoding="utf-8")
+    for cell in judged.itertuples():
+        interval = f"{_signed(cell.mean)} [{_signed(cell.t_low)}, {_signed(cell.t_high)}]"
+        forms = {cell.verdict, cell.verdict.replace(UNDECIDED, "consistent (and with no difference)")}
+        assert any(f"{interval} | {form} |" in text for form in forms), (
+            f"{archive}: {cell.dataset} {cell.model} {a} − {b} {metric}: '{interval} | {cell.verdict} |' not in "
+            f"{REPORT.name}"
+        )

@@ -149,6 +149,8 @@ def test_paired_against_another_folder_pairs_the_same_cell_and_seed_across_folde
                                   paired[["mean", "t_low", "t_high", "boot_low", "boot_high"]])
     text = main(["table", str(first), "--against", str(second), "--paired", "loss=top-mse", "loss=top-mse"])
     assert text == 0 and "top-mse (weighted) − top-mse (plain)" in capsys.readouterr().out
+    # The same setting in two folders is no claim of the paper: no figure, no verdict.
+    assert paired["paper"].isna().all() and set(paired["verdict"]) == {"–"}
     # Within one folder the same runs cannot pair with themselves; across, a side absent names its folder.
     assert main(["table", str(first), "--against", str(second), "--paired", "loss=top-mse", "loss=mse"]) == 2
     assert f"B, in {second}: no runs with loss 'mse'" in capsys.readouterr().err
@@ -172,3 +174,18 @@ def test_paired_against_another_folder_pairs_the_same_cell_and_seed_across_folde
 ])
 def test_verdict_rules(low, high, paper, expected):
     assert verdict(low, high, paper) == expected
+
+
+def test_paired_against_another_folder_compares_two_losses_with_the_papers_figure(tmp_path, capsys):
+    """Top-MSE runs kept in one folder, MSE runs in another: the paper's Top-MSE − MSE for the cell and its
+    verdict, as within one folder (intersection-1, proposed, step-by-step)."""
+    topological, conventional = tmp_path / "topological", tmp_path / "conventional"
+    shift = np.array([-0.03, -0.02, -0.04, -0.01, -0.03])  # Top-MSE below MSE on every seed
+    for seed in SEEDS:
+        _write_run(topological, "proposed", "top-mse", seed, BASE[seed] + shift[seed], 0.001, 100.0)
+        _write_run(conventional, "proposed", "mse", seed, BASE[seed], 0.001, 100.0)
+    assert main(["table", str(topological), "--against", str(conventional), "--paired", "loss=top-mse",
+                 "loss=mse", "--format", "csv"]) == 0
+    row = pd.read_csv(io.StringIO(capsys.readouterr().out)).iloc[0]
+    assert row["paper"] == pytest.approx(_paper("proposed", "top-mse") - _paper("proposed", "mse"))
+    assert row["t_high"] < 0 < row["paper"] and row["verdict"] == "opposite"

@@ -165,5 +165,7 @@ step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 propo
 step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 proposed --loss top-dice dice $SEL $COMMON --workers 2
 # 15d. (fifteenth session) mixed-5 with Top-Dice
 step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
+# ---- 2026-11-27 (seventeenth session): 15d done (10 runs, 182-925 s/run, archive docs/results/runs_seventeenth.csv);
+#      16 under way at the stop ----
 # 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2

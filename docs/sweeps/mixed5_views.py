@@ -23,7 +23,7 @@ WIDTH, HEIGHT = 256, 144
 COLUMNS = [f"h{i}{j}" for i in range(3) for j in range(3)]
 MODELS = ("retrieved", "template", "sha2020_step-by-step_top-mse", "proposed_step-by-step_top-mse",
           "sha2020_step-by-step_mse", "proposed_step-by-step_mse", "sha2020_step-by-step_dice",
-          "proposed_step-by-step_dice")
+          "proposed_step-by-step_dice", "sha2020_step-by-step_top-dice", "proposed_step-by-step_top-dice")
 
 store = zarr.open_group("data/intersection-5.zarr", mode="r")
 semantic = np.asarray(store["scene"]["semantic"][:])

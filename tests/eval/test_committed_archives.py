@@ -77,6 +77,7 @@ LOSS_PAIRS = [
     ("runs_eleventh.csv", None, "top-dice", "dice"),
     ("runs_tenth.csv", "runs_sixteenth.csv", "top-mse", "mse"),
     ("runs_seventeenth.csv", "runs_sixteenth.csv", "top-mse", "mse"),
+    ("runs_seventeenth.csv", "runs_sixteenth.csv", "top-dice", "dice"),
 ]
 
 

@@ -99,3 +99,24 @@ def test_every_judged_loss_pair_of_the_archives_is_quoted_with_its_verdict(
             f"{archive}: {cell.dataset} {cell.model} {a} − {b} {metric}: '{interval} | {cell.verdict} |' not in "
             f"{REPORT.name}"
         )
+
+
+def test_the_verdict_tally_counts_the_verdict_table():
+    """reproduction.md's "Tally of the N cells" sentence against its "Verdicts so far" table, the UNet cell
+    counted once (its class-weighted reading; the plain-loss and 10-epoch variants are extra rows)."""
+    text = REPORT.read_text(encoding="utf-8")
+    section = text.split("## Verdicts so far", 1)[1].split("\nTally of the ", 1)
+    rows = [line for line in section[0].splitlines() if line.startswith("| ") and not line.startswith("| cell")]
+    rows = [row for row in rows if "the paper's plain loss" not in row and "10-epoch" not in row]
+
+    def count(column: int) -> dict[str, int]:
+        verdicts = [row.strip("| ").split(" | ")[column].split(" (")[0].replace("consistent with the paper", "consistent")
+                    for row in rows]
+        return {v: verdicts.count(v) for v in ("opposite", "not reproduced", "consistent")}
+
+    tally = " ".join(section[1].split("\n\n", 1)[0].split())
+    assert tally.startswith(f"{len(rows)} cells")
+    for reading, column in (("`iou_weighted`", 5), ("`iou`", 3)):
+        n = count(column)
+        said = f"under {reading} {n['opposite']} opposite, {n['not reproduced']} not reproduced, {n['consistent']} consistent"
+        assert said in tally, f"{REPORT.name}: the tally does not say '{said}'"

@@ -166,6 +166,9 @@ step $S bench --datasets intersection-1 intersection-2 --estimator sha2020 propo
 # 15d. (fifteenth session) mixed-5 with Top-Dice
 step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 # ---- 2026-11-27 (seventeenth session): 15d done (10 runs, 182-925 s/run, archive docs/results/runs_seventeenth.csv);
-#      16 under way at the stop ----
+#      16 was started by mistake (the 10-epoch UNet; step 20 above replaces it) and stopped after 18 min with no
+#      finished run; step 20 started at 12:41 in results-unet3 (under way at the stop; finished runs and cached
+#      UNets are reused). A bench started by a backgrounded script ignores SIGINT: stop it with
+#      `kill -TERM -- -PGID` on a sweep started under `setsid` ----
 # 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2

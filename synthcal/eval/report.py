@@ -21,6 +21,7 @@ import functools
 import json
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -361,8 +362,15 @@ def paired_sides(frame: pd.DataFrame, sides: Sequence[str]) -> tuple[str, str, s
     return keys[0], values[0], values[1]
 
 
-# (frame, key, a, b, per_image, claim): what paired_frame reads; claim None within one folder.
-_Paired = tuple[pd.DataFrame, str, str, str, Callable[[str], pd.Series | None] | None, tuple[str, str] | None]
+class _Paired(NamedTuple):
+    """What :func:`synthcal.eval.statistics.paired_frame` reads for one ``--paired A B [--against OTHER]``."""
+
+    frame: pd.DataFrame
+    key: str
+    a: str  # side A's value of ``key``; across two folders a label naming its folder
+    b: str
+    per_image: Callable[[str], pd.Series | None] | None  # a run id → its per-image scores; None: no bootstrap
+    claim: tuple[str, str] | None  # across two folders, the sides' own values; None within one folder
 
 
 def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: Path, other: pd.DataFrame,
@@ -393,8 +401,8 @@ def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, resu
     parts = [part.loc[part[key] == value].assign(**{key: label, "run_id": prefix + part["run_id"].astype(str)})
              for part, value, label, prefix in ((frame, a, labels[0], "a:"), (other, b, labels[1], "b:"))]
     readers = {"a": per_image_reader(results, metric), "b": per_image_reader(other_results, metric)}
-    return (pd.concat(parts, ignore_index=True), key, *labels, lambda run_id: readers[run_id[0]](run_id[2:]),
-            (a, b))
+    return _Paired(pd.concat(parts, ignore_index=True), key, *labels,
+                   lambda run_id: readers[run_id[0]](run_id[2:]), (a, b))
 
 
 def _paired_inputs(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: str | Path | None,
@@ -414,7 +422,7 @@ def _paired_inputs(frame: pd.DataFrame, sides: Sequence[str], metric: str, resul
     # A reference estimator (no loss, no segmentation) pairs with each trained configuration;
     # not over the key compared (its one value would be paired with itself).
     frame = table_runs(frame, tuple(k for k in ("training", "loss", "matching_score", "segmentation") if k != key))
-    return frame, key, a, b, per_image, claim
+    return _Paired(frame, key, a, b, per_image, claim)
 
 
 def paired_numbers(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: str | Path | None = None,

@@ -379,9 +379,8 @@ def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, resu
     key's values name their folder (``unet (results-unet2)``), so that the same cell in both folders pairs.
 
     Returns:
-        ``(frame, key, a, b, per_image, claim)``: run ids prefixed ``a:`` / ``b:`` (plain names hold no
-        ``:``), which ``per_image`` reads from the side's folder; ``claim``, the sides' own values (the
-        paper's figures compare them where they differ: ``loss=top-mse`` against ``loss=mse``).
+        :class:`_Paired`, its run ids prefixed ``a:`` / ``b:`` (plain names hold no ``:``), which
+        ``per_image`` reads from the side's folder.
     """
     if results.resolve() == other_results.resolve():
         raise ReportError(f"--against {other_results} is the results folder itself: pair within one folder with "
@@ -407,9 +406,7 @@ def _across_folders(frame: pd.DataFrame, sides: Sequence[str], metric: str, resu
 
 def _paired_inputs(frame: pd.DataFrame, sides: Sequence[str], metric: str, results: str | Path | None,
                    other: pd.DataFrame | None, other_results: str | Path | None) -> _Paired:
-    """What :func:`synthcal.eval.statistics.paired_frame` reads for ``--paired A B [--against OTHER]``:
-    ``(frame, key, a, b, per_image, claim)`` (``claim``: None within one folder), references spread over
-    the training keys."""
+    """:class:`_Paired` for ``--paired A B [--against OTHER]``, references spread over the training keys."""
     frame = one_label(frame)
     if other is not None:
         if results is None or other_results is None:

@@ -27,6 +27,18 @@ def _signed(value: float) -> str:
     return f"{value:+.2f}".replace("-", "\u2212")
 
 
+def _interval(difference: float, low: float, high: float) -> str:
+    """``−4.43 [−8.80, −0.06]``: a difference and its 95 % interval as reproduction.md prints them."""
+    return f"{_signed(difference)} [{_signed(low)}, {_signed(high)}]"
+
+
+def _quoted_with_verdict(interval: str, verdict: str, text: str) -> bool:
+    """Whether a verdict table of ``text`` has ``interval`` in one cell and ``verdict`` in the next (the
+    undecided verdict in its short form)."""
+    forms = {verdict, verdict.replace(UNDECIDED, "consistent (and with no difference)")}
+    return any(f"{interval} | {form} |" in text for form in forms)
+
+
 def test_there_are_archives_to_check():
     assert ARCHIVES, "docs/results holds no runs archive"
 
@@ -36,14 +48,11 @@ def test_there_are_archives_to_check():
 def test_every_judged_cell_of_an_archive_is_quoted_with_its_verdict(archive: Path, metric: str):
     cells = synthcal.report(archive, metric=metric)
     judged = cells[cells["verdict"].isin([*VERDICTS, UNDECIDED])]
-    lines = REPORT.read_text(encoding="utf-8").splitlines()
+    text = REPORT.read_text(encoding="utf-8")
     for cell in judged.itertuples():
-        interval = f"{_signed(cell.difference)} [{_signed(cell.t_low)}, {_signed(cell.t_high)}]"
-        quoting = [line for line in lines if interval in line]
-        assert quoting, f"{archive.name}: {cell.dataset} {cell.training} {cell.loss} {metric}: {interval} not in {REPORT.name}"
-        # The verdict tables put the verdict in the cell after the interval, the undecided one in a short form.
-        forms = {cell.verdict, cell.verdict.replace(UNDECIDED, "consistent (and with no difference)")}
-        assert any(f"{interval} | {form} |" in line for line in quoting for form in forms), (
+        interval = _interval(cell.difference, cell.t_low, cell.t_high)
+        assert interval in text, f"{archive.name}: {cell.dataset} {cell.training} {cell.loss} {metric}: {interval} not in {REPORT.name}"
+        assert _quoted_with_verdict(interval, cell.verdict, text), (
             f"{archive.name}: {cell.dataset} {cell.loss} {metric}: {interval} is not followed by '{cell.verdict}'"
         )
 
@@ -93,9 +102,8 @@ def test_every_judged_loss_pair_of_the_archives_is_quoted_with_its_verdict(
     assert not judged.empty, f"{archive}: no judged {a} − {b} cell"
     text = REPORT.read_text(encoding="utf-8")
     for cell in judged.itertuples():
-        interval = f"{_signed(cell.mean)} [{_signed(cell.t_low)}, {_signed(cell.t_high)}]"
-        forms = {cell.verdict, cell.verdict.replace(UNDECIDED, "consistent (and with no difference)")}
-        assert any(f"{interval} | {form} |" in text for form in forms), (
+        interval = _interval(cell.mean, cell.t_low, cell.t_high)
+        assert _quoted_with_verdict(interval, cell.verdict, text), (
             f"{archive}: {cell.dataset} {cell.model} {a} − {b} {metric}: '{interval} | {cell.verdict} |' not in "
             f"{REPORT.name}"
         )

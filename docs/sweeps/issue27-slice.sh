@@ -170,5 +170,11 @@ step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $S
 #      finished run; step 20 started at 12:41 in results-unet3 (under way at the stop; finished runs and cached
 #      UNets are reused). A bench started by a backgrounded script ignores SIGINT: stop it with
 #      `kill -TERM -- -PGID` on a sweep started under `setsid` ----
+# ---- 2026-11-27 (eighteenth session): step 20 needs ~3 h more (15 UNets of 30 epochs, ~24 min each beside another
+#      run), longer than a session had left, so whole cells went first: the `--loss top-dice dice` step above (its
+#      only new cell, intersection-1's Top-Dice runs, 10 runs in 41 min, archive docs/results/runs_eighteenth.csv),
+#      then 15e; step 20 after them ----
+# 15e. mixed-4 with Dice (its Top-MSE and MSE runs are in results: step 15b)
+step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
 # 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2

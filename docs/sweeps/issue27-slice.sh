@@ -176,5 +176,7 @@ step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $S
 #      then 15e; step 20 after them ----
 # 15e. mixed-4 with Dice (its Top-MSE and MSE runs are in results: step 15b)
 step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
+# ---- 2026-11-27 (eighteenth session): 15e done (10 runs in 40 min, archive docs/results/runs_eighteenth.csv);
+#      step 20 (results-unet3) resumed at 14:45 ----
 # 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2

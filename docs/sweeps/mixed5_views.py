@@ -1,17 +1,19 @@
-"""What the views of mixed-5's estimates look like (reproduction.md, "The paper's mixes for intersections 4 and 5").
+"""What the views of a mix's estimates look like (reproduction.md, "The paper's mixes for intersections 4 and 5").
 
 For seeds 0-4 of each model, from each run's ``metrics.csv`` homographies (bird's-eye pixel -> image pixel, SPEC
 §2): the share of estimates whose bottom-centre pixel sees no ground *as returned* (the whole view behind the camera,
 which the cheirality-masked renderer of the STN's loss draws empty); then, each such estimate flipped as the SPEC's
 sign rule (and so the scorer) does, over a lattice of every 4th pixel of the 256 x 144 image: the share of pixels that
-see the ground (depth > 0), the share that see intersection-5's scene, and, over the first 100 test images, the
+see the ground (depth > 0), the share that see the target intersection's scene, and, over the first 100 test images, the
 median share of a view in its most common class (0 where a pixel sees no ground of the scene). The store's own
 cameras are the reference.
 
-Run in the sweep folder (``data/``, ``results/``): ``python mixed5_views.py``.
+Run in the sweep folder (``data/``, ``results/``): ``python mixed5_views.py [mixed-N]`` (default ``mixed-5``;
+``mixed-N``'s test cameras are intersection-N's).
 """
 
 import glob
+import sys
 
 import numpy as np
 import pandas as pd
@@ -25,7 +27,8 @@ MODELS = ("retrieved", "template", "sha2020_step-by-step_top-mse", "proposed_ste
           "sha2020_step-by-step_mse", "proposed_step-by-step_mse", "sha2020_step-by-step_dice",
           "proposed_step-by-step_dice", "sha2020_step-by-step_top-dice", "proposed_step-by-step_top-dice")
 
-store = zarr.open_group("data/intersection-5.zarr", mode="r")
+MIX = sys.argv[1] if len(sys.argv) > 1 else "mixed-5"
+store = zarr.open_group(f"data/intersection-{MIX.removeprefix('mixed-')}.zarr", mode="r")
 semantic = np.asarray(store["scene"]["semantic"][:])
 us, vs = np.meshgrid(np.arange(0, WIDTH, 4), np.arange(0, HEIGHT, 4))
 pixels = np.stack([us.ravel(), vs.ravel(), np.ones(us.size)])
@@ -57,7 +60,7 @@ truth = np.asarray(store["homography"][:500]).reshape(-1, 9)
 print(f"{'the store (first 500 cameras)':32s}    {summary(truth)}")
 for model in MODELS:
     for seed in range(5):
-        folders = glob.glob(f"results/runs/mixed-5_{model}_*_s{seed}_*/metrics.csv")
+        folders = glob.glob(f"results/runs/{MIX}_{model}_*_s{seed}_*/metrics.csv")
         if not folders:  # not run (yet)
             continue
         folder = folders[0].removesuffix("/metrics.csv")

@@ -13,6 +13,7 @@ Run in the sweep folder (``data/``, ``results/``): ``python mixed5_views.py [mix
 """
 
 import glob
+import os
 import sys
 
 import numpy as np
@@ -28,7 +29,12 @@ MODELS = ("retrieved", "template", "sha2020_step-by-step_top-mse", "proposed_ste
           "proposed_step-by-step_dice", "sha2020_step-by-step_top-dice", "proposed_step-by-step_top-dice")
 
 MIX = sys.argv[1] if len(sys.argv) > 1 else "mixed-5"
-store = zarr.open_group(f"data/intersection-{MIX.removeprefix('mixed-')}.zarr", mode="r")
+if not MIX.removeprefix("mixed-").isdigit() or not MIX.startswith("mixed-"):
+    sys.exit(f"mixed5_views.py: error: the mix is mixed-N (the target intersection's number), got {MIX!r}")
+STORE = f"data/intersection-{MIX.removeprefix('mixed-')}.zarr"
+if not os.path.isdir(STORE):
+    sys.exit(f"mixed5_views.py: error: no store {STORE} for {MIX} here: run it in the sweep folder")
+store = zarr.open_group(STORE, mode="r")
 semantic = np.asarray(store["scene"]["semantic"][:])
 us, vs = np.meshgrid(np.arange(0, WIDTH, 4), np.arange(0, HEIGHT, 4))
 pixels = np.stack([us.ravel(), vs.ravel(), np.ones(us.size)])

@@ -178,5 +178,12 @@ step $S bench --datasets mixed-5 --estimator sha2020 proposed --loss top-dice $S
 step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
 # ---- 2026-11-27 (eighteenth session): 15e done (10 runs in 40 min, archive docs/results/runs_eighteenth.csv);
 #      step 20 (results-unet3) resumed at 14:45 ----
+# ---- 2026-11-27 (nineteenth session): a new machine; the sweep folder was lost again (step 20's finished runs
+#      with it: it had not finished in two sessions). A new clone of e8eb178 and the intersection-2 store (6 s);
+#      step 20 now runs in seed slices that fit a session, each slice archived to
+#      docs/results/runs_unet30w_intersection2.csv (the cell's one archive; a later slice appends its rows):
+#      seeds 0-2 here, 3-4 next (the same clone commit, so the slices are one code) ----
+# step $S bench --config unet30w.yaml ${U/intersection-1/intersection-2} --seeds 0-2 --results results-unet3
+# step $S bench --config unet30w.yaml ${U/intersection-1/intersection-2} --seeds 3-4 --results results-unet3
 # 16. the UNet on intersection-2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2

@@ -182,8 +182,14 @@ step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss dice $SEL $
 #      with it: it had not finished in two sessions). A new clone of e8eb178 and the intersection-2 store (6 s);
 #      step 20 now runs in seed slices that fit a session, each slice archived to
 #      docs/results/runs_unet30w_intersection2.csv (the cell's one archive; a later slice appends its rows):
-#      seeds 0-2 here, 3-4 next (the same clone commit, so the slices are one code) ----
+#      seeds 0-2 here, 3-4 next (the same clone commit, so the slices are one code). Seeds 0-1 done (62 min per
+#      sha2020 run with its three UNets, 11-14 min per proposed run); seed 2 under way at the stop. Beside it,
+#      15f (mixed-4 with Top-Dice) was started on the core step 20 seemed to leave idle and stopped after 25 min with
+#      no run finished: in a fresh folder each mixed-4 run trains its Siamese at every rate first (6-18 min), and
+#      step 20's next run was waiting on its seed's UNets, not idle ----
 # step $S bench --config unet30w.yaml ${U/intersection-1/intersection-2} --seeds 0-2 --results results-unet3
 # step $S bench --config unet30w.yaml ${U/intersection-1/intersection-2} --seeds 3-4 --results results-unet3
-# 16. the UNet on intersection-2
-step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
+# 16. the UNet on intersection-2 at 10 epochs: replaced by step 20 (run in seed slices above), kept as a record
+# step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
+# 15f. mixed-4 with Top-Dice (the paper has it; after step 20's seeds 2-4)
+step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2

@@ -182,8 +182,8 @@ step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss dice $SEL $
 #      with it: it had not finished in two sessions). A new clone of e8eb178 and the intersection-2 store (6 s);
 #      step 20 now runs in seed slices that fit a session, each slice archived to
 #      docs/results/runs_unet30w_intersection2.csv (the cell's one archive; a later slice appends its rows):
-#      seeds 0-2 here, 3-4 next (the same clone commit, so the slices are one code). Seeds 0-1 done (62 min per
-#      sha2020 run with its three UNets, 11-14 min per proposed run); seed 2 under way at the stop. Beside it,
+#      seeds 0-2 here, 3-4 next (the same clone commit, so the slices are one code). Seeds 0-2 done in 2 h 14 min (62-69
+#      min per sha2020 run with its three UNets, 10-11 min per proposed run); seeds 3-4 next. Beside it,
 #      15f (mixed-4 with Top-Dice) was started on the core step 20 seemed to leave idle and stopped after 25 min with
 #      no run finished: in a fresh folder each mixed-4 run trains its Siamese at every rate first (6-18 min), and
 #      step 20's next run was waiting on its seed's UNets, not idle ----

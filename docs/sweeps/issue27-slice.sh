@@ -189,6 +189,9 @@ step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss dice $SEL $
 #      step 20's next run was waiting on its seed's UNets, not idle ----
 # step $S bench --config unet30w.yaml ${U/intersection-1/intersection-2} --seeds 0-2 --results results-unet3
 # step $S bench --config unet30w.yaml ${U/intersection-1/intersection-2} --seeds 3-4 --results results-unet3
+# ---- 2026-11-27 (twentieth session): the same machine and folder (/work/sweep29); step 20's seeds 3-4 done in
+#      77 min alone on the two cores (4 runs, 4,638 s; appended to docs/results/runs_unet30w_intersection2.csv:
+#      the cell is complete, five seeds). 15f started right after it, both cores ----
 # 16. the UNet on intersection-2 at 10 epochs: replaced by step 20 (run in seed slices above), kept as a record
 # step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
 # 15f. mixed-4 with Top-Dice (the paper has it; after step 20's seeds 2-4)

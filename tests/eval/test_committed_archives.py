@@ -92,6 +92,7 @@ LOSS_PAIRS = [
     ("runs_seventeenth.csv", "runs_sixteenth.csv", "top-mse", "mse"),
     ("runs_seventeenth.csv", "runs_sixteenth.csv", "top-dice", "dice"),
     ("runs_eighteenth.csv", "runs_tenth.csv", "top-dice", "dice"),
+    ("runs_twentieth.csv", "runs_eighteenth.csv", "top-dice", "dice"),
 ]
 
 

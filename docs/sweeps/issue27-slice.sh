@@ -194,11 +194,12 @@ step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss dice $SEL $
 #      the cell is complete, five seeds). 15f started right after it, both cores ----
 # 16. the UNet on intersection-2 at 10 epochs: replaced by step 20 (run in seed slices above), kept as a record
 # step $S bench --datasets intersection-2 --estimator sha2020 proposed --segmentation unet $SEL $COMMON --workers 2
-# 15f. mixed-4 with Top-Dice (the paper has it; after step 20's seeds 2-4)
+# 15f. mixed-4 with Top-Dice (the paper has it; after step 20's seeds 3-4)
 step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 # ---- 2026-11-27 (twentieth session): 15f done (10 runs in 40 min, 259-626 s/run, the Siamese networks trained
 #      afresh in /work/sweep29/results; archive docs/results/runs_twentieth.csv). Next: 15g and 15h below ----
-# 15g. end-to-end with Top-Dice and Dice on intersections 1 and 2 (40 runs, ~4 h: run it in slices by dataset)
+# 15g. end-to-end with Top-Dice and Dice on intersections 1 and 2 (40 runs, ~2.5 h by bench's estimate: one dataset per session;
+#      started 21:21 in the twentieth session in /work/sweep29/results, finished runs are reused)
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --training end-to-end --loss top-dice dice $SEL $COMMON --workers 2
 step $S bench --datasets intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-dice dice $SEL $COMMON --workers 2
 # 15h. Dice on mixed-1 (~1 h), the mix where the Dice loss may change a verdict

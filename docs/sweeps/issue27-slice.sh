@@ -201,6 +201,10 @@ step $S bench --datasets mixed-4 --estimator sha2020 proposed --loss top-dice $S
 # 15g. end-to-end with Top-Dice and Dice on intersections 1 and 2 (40 runs, ~2.5 h by bench's estimate: one dataset per session;
 #      started 21:21 in the twentieth session in /work/sweep29/results, finished runs are reused)
 step $S bench --datasets intersection-1 --estimator sha2020 proposed --training end-to-end --loss top-dice dice $SEL $COMMON --workers 2
-step $S bench --datasets intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-dice dice $SEL $COMMON --workers 2
+# ---- 2026-11-27 (twenty-first session): the twentieth's bench died with its session after 2 runs; restarted
+#      21:50 on the CPU for intersection-1. Intersection-2's 20 runs ran instead on a lent H200 in 358 s
+#      (docs/sweeps/gpu-bench.sh with TRAINING=end-to-end LOSSES="top-dice dice" WORKERS=20; archive
+#      docs/results/runs_twentyfirst_gpu.csv, beside the same script's device check on the Top-MSE cell) ----
+# step $S bench --datasets intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-dice dice $SEL $COMMON --workers 2
 # 15h. Dice on mixed-1 (~1 h), the mix where the Dice loss may change a verdict
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2

@@ -15,7 +15,15 @@
 # What comes back under $OUT: digest.txt (the store's SHA-256 over its data files: run the heredoc below on the
 # CPU sweep's store, the same digest means the same images, homographies and splits), runs.csv (`synthcal table
 # --layout runs`: the archive; docs/results/runs_twentyfirst_gpu.csv is the two runs' files joined) and
-# results.tgz (the run folders, per-image scores included, without the stage cache).
+# results.tgz (the run folders, per-image scores included, without the stage cache). Other cells: DATASETS,
+# STORES, ESTIMATORS and EXTRA (more bench options, e.g. EXTRA="--segmentation unet --config docs/sweeps/unet30w.yaml").
+# The CPU sweep's stores (/work/sweep29/data, `generate --splits`, then `synthcal split` on each for the mixed
+# dictionaries), files and SHA-256 by this script's digest:
+#   intersection-1.zarr 822 d91be65846bcdb1671e106f41623df5d2627c174332fc037b561e54d0c71e3dd
+#   intersection-2.zarr 812 9cd6d69ad182a65386dd37ef0d15bc4acc91ad5f62f686e1d24eb4f43ef3961e (the GPU's: the same)
+#   intersection-3.zarr 812 6cfc003766498a1eefde723572344686fd5f4eb813e0cedde6dd8b43abbb34aa
+#   intersection-4.zarr 822 56364aa5c6d74ca653bed3a08ab2714f91422d8fd2e5e1af0df18379fc8bc753
+#   intersection-5.zarr 822 f0e6fc7361cf108c706c87e37a3c47a38461ce80d781415c69a46aeeff30f8c0
 set -uo pipefail
 export PYTHONUNBUFFERED=1
 OUT=${OUT:-/tmp/out}
@@ -49,8 +57,15 @@ python3 -c 'import torch, numpy, cv2; print("torch", torch.__version__, "numpy",
 echo "cores: $(nproc)"
 printf '#!/bin/sh\nexec python3 -c "import sys; from synthcal.cli import main; sys.exit(main())" "$@"\n' > /tmp/synthcal
 chmod +x /tmp/synthcal && export PATH=/tmp:$PATH  # a command, not a function: timeout runs it
-[ -e /tmp/data/intersection-2.zarr ] || time synthcal generate intersection-2 --profile quick --out /tmp/data --workers 16 --splits --quiet --yes || exit 1
-python3 - /tmp/data/intersection-2.zarr <<'E' | tee "$OUT/digest.txt"
+DATASETS=${DATASETS:-intersection-2}
+STORES=${STORES:-$DATASETS}  # a mixed-K dataset reads other scenes' stores: STORES="intersection-1 ... intersection-5"
+todo=""; for store in $STORES; do [ -e "/tmp/data/$store.zarr" ] || todo="$todo $store"; done
+if [ -n "$todo" ]; then
+    time synthcal generate $todo --profile quick --out /tmp/data --workers 16 --splits --quiet --yes || exit 1
+    # the mixed dictionaries are drawn from the stores beside a store: split again once all exist (as the CPU sweep did)
+    [ "$(echo $STORES | wc -w)" -gt 1 ] && for store in $STORES; do synthcal split "/tmp/data/$store.zarr" > /dev/null || exit 1; done
+fi
+python3 - $(for store in $STORES; do echo "/tmp/data/$store.zarr"; done) <<'E' | tee "$OUT/digest.txt"
 import hashlib, sys
 from pathlib import Path
 for store in map(Path, sys.argv[1:]):  # every data file but the JSON metadata (it records the software)
@@ -61,7 +76,7 @@ for store in map(Path, sys.argv[1:]):  # every data file but the JSON metadata (
         digest.update(path.read_bytes())
     print(store.name, len(files), digest.hexdigest())
 E
-time timeout "${BENCH_TIMEOUT:-400}" synthcal bench --datasets intersection-2 --estimator sha2020 proposed \
+time timeout "${BENCH_TIMEOUT:-400}" synthcal bench --datasets $DATASETS --estimator ${ESTIMATORS:-sha2020 proposed} ${EXTRA:-} \
     --training "${TRAINING:-step-by-step}" --loss ${LOSSES:-top-mse} --select learning_rate=1e-4,3e-4,1e-3 --patience 6 --data /tmp/data --results "$OUT/results" \
     --profile quick --quiet --yes --device cuda --workers "${WORKERS:-5}"
 synthcal table "$OUT/results" --layout runs --format csv > "$OUT/runs.csv" || echo "table: see above (scipy?)"

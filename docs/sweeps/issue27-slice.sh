@@ -206,5 +206,7 @@ step $S bench --datasets intersection-1 --estimator sha2020 proposed --training 
 #      (docs/sweeps/gpu-bench.sh with TRAINING=end-to-end LOSSES="top-dice dice" WORKERS=20; archive
 #      docs/results/runs_twentyfirst_gpu.csv, beside the same script's device check on the Top-MSE cell) ----
 # step $S bench --datasets intersection-2 --estimator sha2020 proposed --training end-to-end --loss top-dice dice $SEL $COMMON --workers 2
+# ---- 2026-11-27 (twenty-first session): intersection-1's 20 runs done at 23:36 on the CPU (18 this session in
+#      6,391 s; archive docs/results/runs_twentyfirst.csv); 15h started right after, in the same folder ----
 # 15h. Dice on mixed-1 (~1 h), the mix where the Dice loss may change a verdict
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2

@@ -93,6 +93,7 @@ LOSS_PAIRS = [
     ("runs_seventeenth.csv", "runs_sixteenth.csv", "top-dice", "dice"),
     ("runs_eighteenth.csv", "runs_tenth.csv", "top-dice", "dice"),
     ("runs_twentieth.csv", "runs_eighteenth.csv", "top-dice", "dice"),
+    ("runs_twentyfirst.csv", None, "top-dice", "dice"),
     ("runs_twentyfirst_gpu.csv", None, "top-dice", "dice"),
 ]
 

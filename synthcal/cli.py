@@ -690,23 +690,26 @@ def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int, fixe
 
 def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
     """One line: the runs to do × their estimated minutes, from the recorded times of finished runs
-    of the same estimators; whether to go on."""
+    (:func:`synthcal.eval.harness.expected_seconds`: those alike in estimator, training, segmentation and
+    device, else the estimator's); whether to go on."""
     from statistics import mean
 
-    from synthcal.eval.harness import recorded_seconds
+    from synthcal.eval.harness import expected_seconds, recorded_seconds
 
     if not todo:
         return True
     seconds = recorded_seconds(args.results) if args.results.is_dir() else {}
-    by_estimator = {name: sum(1 for run in todo if run.estimator == name) for name in dict.fromkeys(
-        run.estimator for run in todo)}
-    unknown = [name for name in by_estimator if name not in seconds]
+    by_estimator: dict[str, list[float | None]] = {}
+    for run in todo:
+        by_estimator.setdefault(run.estimator, []).append(expected_seconds(run, seconds))
+    unknown = [name for name, expected in by_estimator.items() if None in expected]
     workers = 1 if args.scheduler else args.workers
     if unknown:
         print(f"estimated time: unknown (no finished run of {', '.join(unknown)} in {args.results} to time by)")
         return True
-    parts = [f"{count} × {_duration(mean(seconds[name]))} ({name})" for name, count in by_estimator.items()]
-    total = sum(count * mean(seconds[name]) for name, count in by_estimator.items()) / workers
+    known = {name: [value for value in expected if value is not None] for name, expected in by_estimator.items()}
+    parts = [f"{len(values)} × {_duration(mean(values))} ({name})" for name, values in known.items()]
+    total = sum(sum(values) for values in known.values()) / workers
     print(f"estimated time: {' + '.join(parts)}"
           f"{f' over {workers} workers' if workers > 1 else ''} ≈ {_duration(total)} "
           f"(from the recorded times of finished runs)", flush=True)

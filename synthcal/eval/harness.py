@@ -150,6 +150,9 @@ __all__ = [
     "collect_results",
     "is_finished",
     "recorded_seconds",
+    "expected_seconds",
+    "timing_key",
+    "TIMING_KEYS",
     "training_budget",
     "chosen_text",
     "table_runs",
@@ -408,15 +411,34 @@ def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers
     pool.shutdown()
 
 
-def recorded_seconds(results: str | Path) -> dict[str, list[float]]:
-    """The seconds each finished (ok) run took, by estimator name as given: what a sweep's preview
-    estimates its runs by. A damaged record is left out (with a :class:`DamagedRecordWarning`)."""
-    seconds: dict[str, list[float]] = {}
+# What a run's time depends on most: the estimator, how it trains, whether a UNet is in the loop, the device
+# (a proposed run took 7 min step-by-step on mixed-4 and 13 min end-to-end on intersection-1, on one core).
+TIMING_KEYS = ("estimator", "training", "segmentation", "device")
+
+
+def timing_key(run: Run | dict[str, Any]) -> tuple[str, ...]:
+    """A run's (or a run record's ``run`` mapping's) values of :data:`TIMING_KEYS`, as strings."""
+    values = run if isinstance(run, dict) else asdict(run)
+    return tuple(str(values.get(key)) for key in TIMING_KEYS)
+
+
+def recorded_seconds(results: str | Path) -> dict[tuple[str, ...], list[float]]:
+    """The seconds each finished (ok) run took, by :func:`timing_key`: what a sweep's preview estimates its
+    runs by. A damaged record is left out (with a :class:`DamagedRecordWarning`)."""
+    seconds: dict[tuple[str, ...], list[float]] = {}
     for path in sorted((Path(results) / "runs").glob("*/run.json")):
         record = read_record(path)
         if record is not None and record["status"] == "ok" and isinstance(record.get("seconds"), (int, float)):
-            seconds.setdefault(str(record["run"].get("estimator")), []).append(float(record["seconds"]))
+            seconds.setdefault(timing_key(record["run"]), []).append(float(record["seconds"]))
     return seconds
+
+
+def expected_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]]) -> float | None:
+    """A run's expected seconds from :func:`recorded_seconds`: the mean of the finished runs with its
+    :func:`timing_key`, else of every finished run of its estimator; None when its estimator has none."""
+    key = timing_key(run)
+    alike = seconds.get(key) or [value for other, values in seconds.items() if other[0] == key[0] for value in values]
+    return sum(alike) / len(alike) if alike else None
 
 
 def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> pd.DataFrame:

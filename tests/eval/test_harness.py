@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 import torch
 import yaml
+from run_records import write_run
 
 from synthcal.cli import main
 from synthcal.eval.harness import (
@@ -23,10 +24,13 @@ from synthcal.eval.harness import (
     collect_results,
     execute_run,
     expand_runs,
+    expected_seconds,
+    recorded_seconds,
     run_sweep,
     run_threads,
     table_runs,
 )
+from synthcal.eval.runs import Run
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.store.splits import SplitError, read_split_indices
@@ -787,3 +791,26 @@ def test_invalid_truth_in_a_store_is_one_line_naming_it(data, tmp_path, monkeypa
     assert bench(data, tmp_path / "results", "identity", seeds="0") == 2
     err = capsys.readouterr().err
     assert err.splitlines() == ["synthcal: error: S.zarr: true homography of sample 3: not a finite (3, 3) matrix"]
+
+
+def test_a_sweep_is_timed_by_the_finished_runs_most_alike(tmp_path):
+    """The preview's estimate reads the finished runs with the same estimator, training, segmentation and
+    device (an end-to-end run took twice a step-by-step one in the twentieth session's sweep), and only
+    without such runs every run of the estimator."""
+    write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=400.0)
+    write_run(tmp_path, "proposed", "dice", 1, 0.6, 1e-4, seconds=500.0)
+    write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=800.0, training="end-to-end")
+    write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=60.0, training="end-to-end", device="cuda")
+    seconds = recorded_seconds(tmp_path)
+
+    def run(training: str, segmentation: str = "ground-truth", device: str | None = None,
+            estimator: str = "proposed") -> Run:
+        return Run(dataset="intersection-1", store="s.zarr", mixed=None, store_hash="h", estimator=estimator,
+                   model=estimator, seed=2, training=training, segmentation=segmentation, device=device)
+
+    assert expected_seconds(run("step-by-step"), seconds) == 450.0
+    assert expected_seconds(run("end-to-end"), seconds) == 800.0
+    assert expected_seconds(run("end-to-end", device="cuda"), seconds) == 60.0
+    # no finished run alike: every run of the estimator (the UNet's runs would be slower; nothing better is known)
+    assert expected_seconds(run("step-by-step", segmentation="unet"), seconds) == pytest.approx(1760.0 / 4)
+    assert expected_seconds(run("step-by-step", estimator="sha2020"), seconds) is None

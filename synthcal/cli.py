@@ -699,17 +699,20 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
     if not todo:
         return True
     seconds = recorded_seconds(args.results) if args.results.is_dir() else {}
-    by_estimator: dict[str, list[float | None]] = {}
+    by_estimator: dict[str, list[float]] = {}
+    unknown: dict[str, None] = {}  # an estimator with no finished run at all (ordered, once each)
     for run in todo:
-        by_estimator.setdefault(run.estimator, []).append(expected_seconds(run, seconds))
-    unknown = [name for name, expected in by_estimator.items() if None in expected]
+        expected = expected_seconds(run, seconds)
+        if expected is None:
+            unknown[run.estimator] = None
+        else:
+            by_estimator.setdefault(run.estimator, []).append(expected)
     workers = 1 if args.scheduler else args.workers
     if unknown:
         print(f"estimated time: unknown (no finished run of {', '.join(unknown)} in {args.results} to time by)")
         return True
-    known = {name: [value for value in expected if value is not None] for name, expected in by_estimator.items()}
-    parts = [f"{len(values)} × {_duration(mean(values))} ({name})" for name, values in known.items()]
-    total = sum(sum(values) for values in known.values()) / workers
+    parts = [f"{len(values)} × {_duration(mean(values))} ({name})" for name, values in by_estimator.items()]
+    total = sum(sum(values) for values in by_estimator.values()) / workers
     print(f"estimated time: {' + '.join(parts)}"
           f"{f' over {workers} workers' if workers > 1 else ''} ≈ {_duration(total)} "
           f"(from the recorded times of finished runs)", flush=True)

@@ -418,8 +418,9 @@ TIMING_KEYS = ("estimator", "training", "segmentation", "device")
 
 def timing_key(run: Run | dict[str, Any]) -> tuple[str, ...]:
     """A run's (or a run record's ``run`` mapping's) values of :data:`TIMING_KEYS`, as strings."""
-    values = run if isinstance(run, dict) else asdict(run)
-    return tuple(str(values.get(key)) for key in TIMING_KEYS)
+    if isinstance(run, dict):
+        return tuple(str(run.get(key)) for key in TIMING_KEYS)
+    return tuple(str(getattr(run, key)) for key in TIMING_KEYS)
 
 
 def recorded_seconds(results: str | Path) -> dict[tuple[str, ...], list[float]]:

@@ -796,8 +796,7 @@ def test_invalid_truth_in_a_store_is_one_line_naming_it(data, tmp_path, monkeypa
 def test_a_sweep_is_timed_by_the_finished_runs_most_alike(tmp_path):
     """The preview's estimate reads the finished runs with the same estimator, training, segmentation and
     device (the proposed model's end-to-end runs took twice its step-by-step ones in one folder, twenty-first
-    session), and only
-    without such runs every run of the estimator."""
+    session), and only without such runs every run of the estimator."""
     write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=400.0)
     write_run(tmp_path, "proposed", "dice", 1, 0.6, 1e-4, seconds=500.0)
     write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=800.0, training="end-to-end")

@@ -210,3 +210,11 @@ step $S bench --datasets intersection-1 --estimator sha2020 proposed --training 
 #      6,391 s; archive docs/results/runs_twentyfirst.csv); 15h started right after, in the same folder ----
 # 15h. Dice on mixed-1 (~1 h), the mix where the Dice loss may change a verdict
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
+# ---- 2026-11-28 (twenty-second session): 15h's bench died with the twenty-first session after its 5 sha2020 runs;
+#      restarted at 00:25, the proposed model's 5 runs done in 27 min (archive docs/results/runs_twentysecond.csv,
+#      with the diagnostics of 15i, 64 s: the Siamese networks cached by 15h's runs) ----
+# 15i. the template diagnostics on mixed-1 in the same folder (the report's "- retrieved" pairs need them there)
+step $S bench --datasets mixed-1 --estimator retrieved oracle-template template $SEL $COMMON --workers 2
+# 15j. Top-Dice and MSE on mixed-1 (~1 h each)
+step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
+step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2

@@ -215,6 +215,7 @@ step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss dice $SEL $
 #      with the diagnostics of 15i, 64 s: the Siamese networks cached by 15h's runs) ----
 # 15i. the template diagnostics on mixed-1 in the same folder (the report's "- retrieved" pairs need them there)
 step $S bench --datasets mixed-1 --estimator retrieved oracle-template template $SEL $COMMON --workers 2
-# 15j. Top-Dice and MSE on mixed-1 (~1 h each)
+# 15j. Top-Dice and MSE on mixed-1 (~1 h each; Top-Dice done in 41 min in the twenty-second session, archived
+#      with 15h; MSE started at 01:34)
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2

@@ -95,6 +95,7 @@ LOSS_PAIRS = [
     ("runs_twentieth.csv", "runs_eighteenth.csv", "top-dice", "dice"),
     ("runs_twentyfirst.csv", None, "top-dice", "dice"),
     ("runs_twentyfirst_gpu.csv", None, "top-dice", "dice"),
+    ("runs_twentysecond.csv", None, "top-dice", "dice"),
 ]
 
 

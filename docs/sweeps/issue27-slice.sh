@@ -216,6 +216,9 @@ step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss dice $SEL $
 # 15i. the template diagnostics on mixed-1 in the same folder (the report's "- retrieved" pairs need them there)
 step $S bench --datasets mixed-1 --estimator retrieved oracle-template template $SEL $COMMON --workers 2
 # 15j. Top-Dice and MSE on mixed-1 (~1 h each; Top-Dice done in 41 min in the twenty-second session, archived
-#      with 15h; MSE started at 01:34)
+#      with 15h; MSE in 38 min, the same archive)
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
+# ---- 2026-11-28 (twenty-second session): 15h-15j done; mixed-1's Top-MSE runs (lost with the fourth session's
+#      folder) would let Top-MSE - MSE pair on mixed-1: the next CPU candidate ----
+# step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-mse $SEL $COMMON --workers 2

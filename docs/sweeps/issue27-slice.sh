@@ -221,4 +221,10 @@ step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-dice $S
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss mse $SEL $COMMON --workers 2
 # ---- 2026-11-28 (twenty-second session): 15h-15j done; mixed-1's Top-MSE runs (lost with the fourth session's
 #      folder) would let Top-MSE - MSE pair on mixed-1: the next CPU candidate ----
-# step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
+# 15k. Top-MSE on mixed-1 again (started in the twenty-second session, its bench died after the 5 sha2020 runs)
+step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
+# ---- 2026-11-28 (twenty-third session): 15k done (the proposed model's 5 runs in 24 min; archived with 15h-15j in
+#      docs/results/runs_twentysecond.csv). Next: end-to-end on the mixes, mixed-1 first ----
+# 15l. end-to-end with Top-MSE and Dice on mixed-1 (~50 min each by bench's estimate)
+step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
+step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss dice $SEL $COMMON --workers 2

@@ -96,6 +96,7 @@ LOSS_PAIRS = [
     ("runs_twentyfirst.csv", None, "top-dice", "dice"),
     ("runs_twentyfirst_gpu.csv", None, "top-dice", "dice"),
     ("runs_twentysecond.csv", None, "top-dice", "dice"),
+    ("runs_twentysecond.csv", None, "top-mse", "mse"),
 ]
 
 

@@ -627,8 +627,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         except ValueError as error:
             raise _UserError(str(error)) from None
     segmentations = args.segmentation or [training.segmentation]
-    settings = training.settings()  # --stn-template / --class-reduction / --select / --patience override the profile's
-    settings.update({key: value for key in ("stn_template", "class_reduction", "select", "patience")
+    # --stn-template / --class-reduction / --select / --patience / --selection-score override the profile's
+    settings = training.settings()
+    settings.update({key: value for key in ("stn_template", "class_reduction", "select", "patience", "selection_score")
                      if (value := getattr(args, key)) is not None})
     dictionary = args.dictionary or {label: config.dictionary(label, args.profile) for label in args.datasets}
     estimators = merge_options(args.estimator, config.config.estimators, args.option)
@@ -1109,7 +1110,7 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="template matching score of the bundled models (default top-mse)")
     p.add_argument("--segmentation", nargs="+", default=None, choices=SEGMENTATIONS,
                    help="default: the profile's")
-    from synthcal.config import CLASS_REDUCTIONS, STN_TEMPLATES
+    from synthcal.config import CLASS_REDUCTIONS, SELECTION_SCORES, STN_TEMPLATES
 
     p.add_argument("--stn-template", default=None, choices=STN_TEMPLATES,
                    help="the template the bundled STNs read in training: retrieved (the Siamese's nearest, as at "
@@ -1120,6 +1121,10 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--patience", type=_positive_int, default=None, metavar="EPOCHS",
                    help="keep the STN's best epoch on the validation split; stop after EPOCHS without a better "
                         "one (default: the profile's training.patience, else every epoch)")
+    p.add_argument("--selection-score", default=None, choices=SELECTION_SCORES,
+                   help="what ranks the fits on the validation split for --patience and --select: warp-loss (the run's "
+                        "own L_warp of the estimates) or iou (1 - their mean iou, the tables' reading, at the working "
+                        "resolution); default: the profile's training.selection_score, else warp-loss")
     p.add_argument("--class-reduction", default=None, choices=CLASS_REDUCTIONS,
                    help="how MSE, Top-MSE and the matching scores reduce over the class channels: sum (squared "
                         "distance of per-pixel class vectors) or mean (that / 4); default: the profile's (sum)")

@@ -32,6 +32,7 @@ from synthcal.config.vocabulary import (
     Dictionary,
     Images,
     Segmentation,
+    SelectionScore,
     StnTemplate,
     UnetClassWeights,
 )
@@ -471,6 +472,11 @@ class TrainingSettings(StrictModel):
     ``select`` (None: ``learning_rate`` alone): the learning rates tried, the one
     whose trained model scores best on the validation split kept. Both read the
     validation split, never test.
+    ``selection_score`` (None: ``warp-loss``) is what ranks the fits for both: the
+    run's own ``L_warp`` of the validation estimates, or ``iou`` — 1 − their mean
+    ``iou``, the tables' reading at the working resolution
+    (:func:`synthcal.training.validation_iou`; docs/decisions.md, "Early stopping and
+    learning-rate selection").
     """
 
     work_size: tuple[StrictInt, StrictInt] | None = None
@@ -493,6 +499,7 @@ class TrainingSettings(StrictModel):
     patience: StrictInt | None = Field(None, ge=1)
     unet_class_weights: UnetClassWeights | None = None
     select: SelectGrid | None = None
+    selection_score: SelectionScore | None = None
 
     @field_validator("work_size")
     @classmethod
@@ -515,11 +522,11 @@ class TrainingProfile(TrainingSettings):
     def settings(self) -> dict[str, Any]:
         """The :class:`TrainingSettings` fields as a plain dict (what estimators take).
 
-        ``batch_norm``, ``patience``, ``unet_class_weights`` and ``select`` are left out while None, so that the
-        runs recorded before they existed keep their ids (the settings are in the run's
-        hash; set, they are part of it).
+        ``batch_norm``, ``patience``, ``unet_class_weights``, ``select`` and ``selection_score`` are left out
+        while None, so that the runs recorded before they existed keep their ids (the settings are in the
+        run's hash; set, they are part of it).
         """
-        unset = {name for name in ("batch_norm", "patience", "unet_class_weights", "select")
+        unset = {name for name in ("batch_norm", "patience", "unet_class_weights", "select", "selection_score")
                  if getattr(self, name) is None}
         return self.model_dump(mode="json", exclude={"segmentation", *unset})
 

@@ -30,6 +30,7 @@ __all__ = [
     "Segmentation",
     "StnTemplate",
     "ClassReduction",
+    "SelectionScore",
     "UnetClassWeights",
     "Dictionary",
     "Images",
@@ -41,6 +42,7 @@ __all__ = [
     "SEGMENTATIONS",
     "STN_TEMPLATES",
     "CLASS_REDUCTIONS",
+    "SELECTION_SCORES",
     "DICTIONARIES",
     "GRID_AXES",
     "BUILTIN_LAYOUT_NAMES",
@@ -77,6 +79,9 @@ StnTemplate = Literal["retrieved", "ground-truth"]
 # How MSE-based losses and matching scores reduce over the class channels (SPEC §7):
 # ``sum``: the squared distance between per-pixel class vectors; ``mean``: that divided by C.
 ClassReduction = Literal["sum", "mean"]
+# What ranks the fits on the validation split (the STN's epochs, the learning rates): the run's own ``L_warp``
+# of the estimates, or 1 − their ``iou`` (the tables' reading, at the working resolution).
+SelectionScore = Literal["warp-loss", "iou"]
 # A weighting of the UNet's cross-entropy over the classes (None in settings: the paper's plain one).
 UnetClassWeights = Literal["inverse-frequency"]
 # What ``synthcal bench`` searches: the seed's dictionary split, or every pool sample
@@ -92,6 +97,7 @@ MATCHINGS: tuple[Matching, ...] = get_args(Matching)
 SEGMENTATIONS: tuple[Segmentation, ...] = get_args(Segmentation)
 STN_TEMPLATES: tuple[StnTemplate, ...] = get_args(StnTemplate)
 CLASS_REDUCTIONS: tuple[ClassReduction, ...] = get_args(ClassReduction)
+SELECTION_SCORES: tuple[SelectionScore, ...] = get_args(SelectionScore)
 DICTIONARIES: tuple[Dictionary, ...] = get_args(Dictionary)
 
 # Model option → its label in run records and tables (the paper calls the baseline "sha2020").

@@ -77,10 +77,12 @@ Validation and selection
 ------------------------
 ``fit``'s ``validation`` split (the harness passes it when the settings ask) is
 all that ``settings.patience`` and ``settings.select`` read, never test. The
-score is the **validation ``L_warp`` of the estimates**: each validation map
+score is by default the **validation ``L_warp`` of the estimates**: each validation map
 gets the template the trained Siamese retrieves (as a test image would), the
 STN refines it, and the run's own loss compares the views
-(:func:`synthcal.training.validation_loss`; docs/decisions.md says why).
+(:func:`synthcal.training.validation_loss`; docs/decisions.md says why);
+``settings.selection_score: iou`` scores the same estimates by 1 − their mean ``iou``
+at the working resolution instead (:func:`synthcal.training.validation_iou`).
 ``patience``: the step-by-step STN is scored after every epoch, the best epoch's
 weights kept, training stopped after ``patience`` epochs without a better score;
 with the UNet in the loop (step-by-step) the UNet too, by its validation
@@ -173,6 +175,7 @@ from synthcal.training import (
     train_stn,
     train_unet,
     unet_cache_key,
+    validation_iou,
     validation_loss,
     with_unet_maps,
 )
@@ -303,6 +306,7 @@ class PaperEstimator:
         self.selection: dict[str, Any] | None = None
         self._fitted: dict[str, Any] | None = None
         self._held_out: TrainingData | None = None
+        self._scene_ids: Tensor | None = None
         # The current learning rate's validation examples (:meth:`_validation_examples`).
         self._validation: tuple[StnExamples, Tensor] | None = None
 
@@ -440,6 +444,7 @@ class PaperEstimator:
         self.trained_stages, self.selection = [], None
         data, keys = self._data(train, dictionary, scene)
         self._held_out = None if validation is None else self._validation_data(validation, data)
+        self._scene_ids = torch.from_numpy(np.asarray(scene.semantic))  # what validation_iou draws
         if validation is not None and self.uses_unet:  # only the UNet's cache key reads it
             keys["held_out"] = held_out_cache_key(np.asarray(validation.semantics), np.asarray(validation.images))
         grid = (s.learning_rate,) if s.select is None else s.select.learning_rate
@@ -457,7 +462,7 @@ class PaperEstimator:
         self._fitted, self.history, self.stage_keys = kept
         self._warn_missed_classes(s.learning_rate if s.select is None else grid[_best(scores)])
         if s.select is not None:
-            self.selection = {"split": "validation", "score": f"L_warp ({self.loss}) of the estimates",
+            self.selection = {"split": "validation", "score": self._score_name(),
                               "grid": {"learning_rate": list(grid)}, "scores": {"learning_rate": scores},
                               "chosen": {"learning_rate": grid[_best(scores)], **self._chosen_epochs()}}
 
@@ -510,12 +515,27 @@ class PaperEstimator:
                                 held_out.template_homographies[retrieved].to(self.device))
         return self._validation
 
-    def _validation_score(self) -> float:
-        """The fitted model's validation ``L_warp`` of its estimates (module docstring)."""
-        f = self._check_fitted()
-        examples, homographies = self._validation_examples(f["siamese"], f["unet"], f["embedding"])
+    def _score_name(self) -> str:
+        """What :attr:`selection`'s scores are, in words."""
+        if self.settings.selection_score == "iou":
+            return "1 − iou of the estimates (working resolution)"
+        return f"L_warp ({self.loss}) of the estimates"
+
+    def _scorer(self, siamese: SiameseNet, unet: nn.Module | None,
+                embedding: Tensor) -> Callable[[nn.Module | None], float]:
+        """The validation score of an STN's estimates, lower better: ``settings.selection_score``'s
+        (module docstring)."""
+        examples, homographies = self._validation_examples(siamese, unet, embedding)
+        if self.settings.selection_score == "iou":
+            scene = cast(Tensor, self._scene_ids)
+            return lambda stn: 1.0 - validation_iou(stn, examples, homographies, scene)
         criterion = warp_loss(WARP_LOSS_NAMES[self.loss], self.settings.class_reduction)
-        return validation_loss(f["stn"], examples, homographies, criterion)
+        return lambda stn: validation_loss(stn, examples, homographies, criterion)
+
+    def _validation_score(self) -> float:
+        """The fitted model's validation score of its estimates (:meth:`_scorer`)."""
+        f = self._check_fitted()
+        return self._scorer(f["siamese"], f["unet"], f["embedding"])(f["stn"])
 
     def _fit_at(self, train: SplitLike, dictionary: SplitLike, data: TrainingData, keys: dict[str, str]) -> None:
         """One fit under the current settings (one learning rate); sets :attr:`_fitted`."""
@@ -595,11 +615,7 @@ class PaperEstimator:
         None: no refinement (a subclass's choice)."""
         s = self.settings
         templates = stn_templates(s.stn_template, data, siamese, unet, self.device, dictionary=embedding)
-        validate = None
-        if s.patience is not None:
-            examples, homographies = self._validation_examples(siamese, unet, embedding)
-            criterion = warp_loss(WARP_LOSS_NAMES[self.loss], s.class_reduction)
-            validate = lambda stn: validation_loss(stn, examples, homographies, criterion)  # noqa: E731
+        validate = None if s.patience is None else self._scorer(siamese, unet, embedding)
         stn = train_stn(self._stn(data.work_size), data, unet, self.loss, s.stn_epochs, log=self._log("stn"),
                         templates=templates, class_reduction=s.class_reduction, validate=validate,
                         patience=s.patience, scores=self._log("stn-validation") if validate else None, **common)

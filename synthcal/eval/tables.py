@@ -225,7 +225,8 @@ def _duplicates_message(duplicates: pd.DataFrame, keys: tuple[str, ...], shown: 
     more = f"\n  … and {len(duplicates) - shown} more" if len(duplicates) > shown else ""
     return (f"several results for the same keys and seed ({' / '.join((*keys, 'seed'))}):\n" + "\n".join(lines)
             + more + "\n  runs that differ only in what the table does not show (a redrawn split, a fixed against a "
-            "selected learning rate) belong in separate results folders: move the older runs/<id> folders out")
+            "selected learning rate, another selection score) belong in separate results folders: move the older "
+            "runs/<id> folders out")
 
 
 def aggregate(results: pd.DataFrame, value: str = "iou") -> pd.DataFrame:

@@ -4,7 +4,8 @@
 * :mod:`synthcal.training.cache` — trained stages on disk, built once;
 * :mod:`synthcal.training.examples` — what the stages read: a split at the working
   resolution, its maps and the STN's examples;
-* :mod:`synthcal.training.stages` — UNet, Siamese, STN and end-to-end training.
+* :mod:`synthcal.training.stages` — UNet, Siamese, STN and end-to-end training;
+* :mod:`synthcal.training.validation` — a fitted STN's estimates of held-out items and their ``iou``.
 
 Imports of synthcal only :mod:`synthcal.models`, :mod:`synthcal.data`, :mod:`synthcal.store`,
 :mod:`synthcal.config` and :mod:`synthcal.utils` (tests/test_architecture.py).
@@ -46,6 +47,7 @@ from synthcal.training.stages import (
     train_unet,
     validation_loss,
 )
+from synthcal.training.validation import class_iou, held_out_estimates, orient_homographies, validation_iou
 
 __all__ = [
     "NUM_CLASSES",
@@ -76,6 +78,10 @@ __all__ = [
     "train_stn",
     "StnExamples",
     "validation_loss",
+    "validation_iou",
+    "held_out_estimates",
+    "orient_homographies",
+    "class_iou",
     "segmentation_validation_loss",
     "segmentation_class_iou",
     "best_epoch",

@@ -77,6 +77,7 @@ from synthcal.training.examples import (
     with_unet_maps,
 )
 from synthcal.training.resolution import NUM_CLASSES
+from synthcal.training.validation import held_out_estimates
 
 __all__ = [
     "PAPER_END_TO_END_EPOCHS",
@@ -346,19 +347,10 @@ def validation_loss(stn: nn.Module | None, examples: StnExamples, template_homog
     Returns:
         the item-weighted mean loss.
     """
-    was_training = stn is not None and stn.training
-    if stn is not None:
-        stn.eval()
     total, count = 0.0, 0
-    for index in torch.arange(len(examples.templates)).split(batch_size):
-        inputs, target = examples.batch(index)
-        H = template_homographies[index.to(examples.device)]
-        if stn is not None:
-            H = compose_homography(stn(inputs), H, examples.data.work_size)
+    for index, H, target in held_out_estimates(stn, examples, template_homographies, batch_size):
         total += criterion(examples.warp(H), target).item() * len(index)
         count += len(index)
-    if stn is not None:
-        stn.train(was_training)
     return total / max(count, 1)
 
 

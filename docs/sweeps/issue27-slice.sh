@@ -227,4 +227,10 @@ step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-mse $SE
 #      docs/results/runs_twentysecond.csv). Next: end-to-end on the mixes, mixed-1 first ----
 # 15l. end-to-end with Top-MSE and Dice on mixed-1 (~50 min each by bench's estimate)
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
-step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss dice $SEL $COMMON --workers 2
+# ---- 2026-11-28 (twenty-third session): Top-MSE end-to-end done (10 runs in 57 min; archive
+#      docs/results/runs_twentythird.csv); Dice end-to-end not run: the session ran 15m instead ----
+# step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss dice $SEL $COMMON --workers 2
+# 15m. mixed-1 Top-MSE with the fits ranked by validation iou (main f93db1d or later; its own results folder, since
+#      the runs differ from 15k's only in the selection score)
+# step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
+#      --data data --results results-iou --profile quick --quiet --yes --workers 2

@@ -234,3 +234,8 @@ step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-
 #      the runs differ from 15k's only in the selection score)
 # step $S bench --datasets mixed-1 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
 #      --data data --results results-iou --profile quick --quiet --yes --workers 2
+# ---- 2026-11-28 (twenty-third session): 15m done (10 runs in 26 min; archive docs/results/runs_twentythird_iou.csv) ----
+# 15n. the same ranking on a single scene: intersection-1 with Top-MSE (started 04:41 in the twenty-third session
+#      in /work/sweep29/results-iou; finished runs are reused)
+# step $S bench --datasets intersection-1 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
+#      --data data --results results-iou --profile quick --quiet --yes --workers 2

@@ -631,6 +631,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     settings = training.settings()
     settings.update({key: value for key in ("stn_template", "class_reduction", "select", "patience", "selection_score")
                      if (value := getattr(args, key)) is not None})
+    _check_training_settings(settings)
     dictionary = args.dictionary or {label: config.dictionary(label, args.profile) for label in args.datasets}
     estimators = merge_options(args.estimator, config.config.estimators, args.option)
     runs = expand_runs(args.data, args.datasets, estimators, parse_seeds(args.seeds), args.profile,
@@ -788,6 +789,19 @@ def _seconds(text: str) -> float:
     if not 0 <= value < float("inf"):
         raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
     return value
+
+
+def _check_training_settings(settings: dict[str, Any]) -> None:
+    """The profile's training settings with the command line's overrides, checked before any run starts."""
+    from pydantic import ValidationError
+
+    from synthcal.config import TrainingSettings
+
+    try:
+        TrainingSettings(**settings)
+    except ValidationError as error:
+        reasons = "; ".join(str(item["msg"]).removeprefix("Value error, ") for item in error.errors())
+        raise _UserError(f"bench: the training settings (the profile's, with the options given): {reasons}") from None
 
 
 def _select_grid(text: str) -> dict[str, list[float]]:

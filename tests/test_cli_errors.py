@@ -361,3 +361,12 @@ def test_a_picture_into_a_read_only_folder_names_the_picture(smoke_stores, tmp_p
     assert main([*argv, "-o", str(picture)]) == 2
     assert one_line(capsys.readouterr().err) == f"synthcal: error: {picture}: Permission denied"
     assert not any(folder.iterdir())
+
+
+def test_a_selection_score_with_nothing_to_rank_stops_bench_before_any_run(tmp_path, capsys):
+    argv = ["bench", "--data", str(tmp_path / "data"), "--datasets", "intersection-1", "--estimator", "proposed",
+            "--results", str(tmp_path / "results"), "--profile", "smoke", "--selection-score", "iou", "--yes"]
+    assert main(argv) == 2
+    line = one_line(capsys.readouterr().err)
+    assert "selection_score 'iou'" in line and "set patience or select too" in line
+    assert not (tmp_path / "results" / "runs").exists()

@@ -508,6 +508,13 @@ class TrainingSettings(StrictModel):
             raise ValueError(f"work_size must be at least 16 × 16 pixels, got {list(size)}")
         return size
 
+    @model_validator(mode="after")
+    def _selection_score_ranks_something(self) -> TrainingSettings:
+        if self.selection_score is not None and self.patience is None and self.select is None:
+            raise ValueError(f"selection_score {self.selection_score!r} ranks fits on the validation split, and "
+                             "nothing is chosen there: set patience or select too (bench --patience / --select)")
+        return self
+
 
 class TrainingProfile(TrainingSettings):
     """A profile's ``training:`` block: the settings and the default segmentation.

@@ -75,3 +75,11 @@ def test_fits_ranked_by_validation_iou_score_what_the_renderer_and_scorer_give(s
     assert scores[chosen] == pytest.approx(1.0 - iou, abs=1e-3)  # a pixel on a rounding boundary may flip
     # Its epochs were ranked by the same score: the kept epoch's is the kept fit's.
     assert estimator.history["stn-validation"][selection["chosen"]["stn_epochs"] - 1] == pytest.approx(scores[chosen])
+
+
+def test_a_selection_score_without_anything_to_rank_is_refused():
+    from synthcal.config import TrainingSettings
+
+    with pytest.raises(ValueError, match="selection_score 'iou' ranks fits .* set patience or select"):
+        TrainingSettings(selection_score="iou")
+    assert TrainingSettings(selection_score="iou", patience=2).selection_score == "iou"

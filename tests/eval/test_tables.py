@@ -214,6 +214,11 @@ def test_training_budget_reads_the_runs_settings():
     record["run"].update(training="end-to-end", segmentation="ground-truth")
     record["run"]["settings"] = dict(settings, max_train=None, stn_template=None, class_reduction=None)
     assert training_budget(record) == "end-to-end 12 epochs; 128 train images; at 128 × 72"
+    record["run"]["settings"].update(select={"learning_rate": [1e-4, 1e-3]}, selection_score="iou")
+    assert training_budget(record).endswith("learning rate chosen on validation from 0.0001, 0.001; fits ranked by "
+                                            "validation iou")
+    record["run"]["settings"]["selection_score"] = "warp-loss"  # the default, said by no caption
+    assert training_budget(record).endswith("from 0.0001, 0.001")
     assert training_budget({"run": {"training": None, "settings": None}}) is None  # identity, template, ecc
 
 

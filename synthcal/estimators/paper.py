@@ -174,6 +174,7 @@ from synthcal.training import (
     train_siamese,
     train_stn,
     train_unet,
+    true_views,
     unet_cache_key,
     validation_iou,
     validation_loss,
@@ -528,7 +529,8 @@ class PaperEstimator:
         examples, homographies = self._validation_examples(siamese, unet, embedding)
         if self.settings.selection_score == "iou":
             scene = cast(Tensor, self._scene_ids)
-            return lambda stn: 1.0 - validation_iou(stn, examples, homographies, scene)
+            truth = true_views(examples, scene)  # drawn once: every epoch's score reads them
+            return lambda stn: 1.0 - validation_iou(stn, examples, homographies, scene, truth)
         criterion = warp_loss(WARP_LOSS_NAMES[self.loss], self.settings.class_reduction)
         return lambda stn: validation_loss(stn, examples, homographies, criterion)
 

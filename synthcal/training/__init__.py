@@ -47,7 +47,13 @@ from synthcal.training.stages import (
     train_unet,
     validation_loss,
 )
-from synthcal.training.validation import class_iou, held_out_estimates, orient_homographies, validation_iou
+from synthcal.training.validation import (
+    class_iou,
+    held_out_estimates,
+    orient_homographies,
+    true_views,
+    validation_iou,
+)
 
 __all__ = [
     "NUM_CLASSES",
@@ -79,6 +85,7 @@ __all__ = [
     "StnExamples",
     "validation_loss",
     "validation_iou",
+    "true_views",
     "held_out_estimates",
     "orient_homographies",
     "class_iou",

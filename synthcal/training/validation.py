@@ -34,7 +34,7 @@ from synthcal.models.warp import inverse_3x3
 from synthcal.training.examples import StnExamples
 from synthcal.training.resolution import NUM_CLASSES
 
-__all__ = ["held_out_estimates", "orient_homographies", "class_iou", "validation_iou"]
+__all__ = ["held_out_estimates", "orient_homographies", "class_iou", "true_views", "validation_iou"]
 
 
 @torch.no_grad()
@@ -119,13 +119,37 @@ def class_iou(predicted: Tensor, target: Tensor, num_classes: int = NUM_CLASSES)
 
 
 @torch.no_grad()
+def true_views(examples: StnExamples, scene: Tensor, batch_size: int = 256) -> Tensor:
+    """The class-id views the held-out items' true homographies draw, at the working resolution.
+
+    They never change while a model trains: draw them once and pass them to every
+    :func:`validation_iou` of a fit (each epoch, each learning rate).
+
+    Args:
+        examples: the items; their true homographies are ``examples.data.homographies``
+            (working resolution, the sign SPEC §2 fixes).
+        scene: (Hs, Ws) integer class ids of the bird's-eye scene.
+        batch_size: items at a time.
+
+    Returns:
+        (K, h, w) uint8 class ids, drawn by nearest sampling as the generator's renderer does.
+    """
+    size = examples.data.work_size
+    scene = scene.to(examples.device)
+    homographies = examples.data.homographies
+    return torch.cat([warp_semantic(scene, homographies[index].to(examples.device).double(), size,
+                                    mode="nearest").to(torch.uint8)
+                      for index in torch.arange(len(homographies)).split(batch_size)])
+
+
+@torch.no_grad()
 def validation_iou(stn: nn.Module | None, examples: StnExamples, template_homographies: Tensor,
-                   scene: Tensor, batch_size: int = 256) -> float:
+                   scene: Tensor, truth: Tensor | None = None, batch_size: int = 256) -> float:
     """Mean ``iou`` of the STN's estimates over held-out items, at the working resolution.
 
-    Each estimate, its sign fixed (module docstring), and each item's true homography draw
-    the scene's class ids by nearest sampling, as the generator's renderer does; the two
-    views are compared by :func:`class_iou`.
+    Each estimate, its sign fixed (module docstring), draws the scene's class ids by
+    nearest sampling, as the generator's renderer does; :func:`class_iou` compares that
+    view with the item's true one (:func:`true_views`).
 
     Args:
         stn: the STN (None: no refinement, the templates' homographies themselves).
@@ -134,6 +158,8 @@ def validation_iou(stn: nn.Module | None, examples: StnExamples, template_homogr
         template_homographies: (K, 3, 3) working-resolution ``A H_k`` of each item's template.
         scene: (Hs, Ws) integer class ids of the bird's-eye scene (the full map, not the
             loss's reduced one).
+        truth: (K, h, w) the items' true views, ``true_views(examples, scene)``; None draws
+            them here (pass them when scoring many fits of the same items).
         batch_size: items at a time.
 
     Returns:
@@ -141,11 +167,11 @@ def validation_iou(stn: nn.Module | None, examples: StnExamples, template_homogr
     """
     size = examples.data.work_size
     scene = scene.to(examples.device)
+    if truth is None:
+        truth = true_views(examples, scene, batch_size)
     total, count = 0.0, 0
     for index, H, _ in held_out_estimates(stn, examples, template_homographies, batch_size):
-        truth = examples.data.homographies[index].to(examples.device)
         estimated = warp_semantic(scene, orient_homographies(H.double(), size), size, mode="nearest")
-        true_view = warp_semantic(scene, truth.double(), size, mode="nearest")
-        total += class_iou(estimated, true_view).sum().item()
+        total += class_iou(estimated, truth[index.to(truth.device)]).sum().item()
         count += len(index)
     return total / max(count, 1)

@@ -132,13 +132,13 @@ def true_views(examples: StnExamples, scene: Tensor, batch_size: int = 256) -> T
         batch_size: items at a time.
 
     Returns:
-        (K, h, w) uint8 class ids, drawn by nearest sampling as the generator's renderer does.
+        (K, h, w) class ids in the scene's dtype (a store's are uint8), drawn by nearest
+        sampling as the generator's renderer does.
     """
     size = examples.data.work_size
     scene = scene.to(examples.device)
     homographies = examples.data.homographies
-    return torch.cat([warp_semantic(scene, homographies[index].to(examples.device).double(), size,
-                                    mode="nearest").to(torch.uint8)
+    return torch.cat([warp_semantic(scene, homographies[index].to(examples.device).double(), size, mode="nearest")
                       for index in torch.arange(len(homographies)).split(batch_size)])
 
 

@@ -242,6 +242,7 @@ step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-
 # ---- 2026-11-28 (twenty-fourth session): 15n done (the proposed model's five runs in 31 min; archive
 #      docs/results/runs_twentyfourth_iou.csv); 15l's second step (end-to-end Dice on mixed-1) done
 #      (10 runs in 57 min; archive docs/results/runs_twentyfourth.csv) ----
-# 15o. the same ranking on intersection-2 with Top-MSE (pairs with runs_thirteenth.csv, both models)
+# 15o. the same ranking on intersection-2 with Top-MSE (pairs with runs_thirteenth.csv, both models): done in the
+#      twenty-fourth session (10 runs in 55 min; appended to docs/results/runs_twentyfourth_iou.csv)
 # step $S bench --datasets intersection-2 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
 #      --data data --results results-iou --profile quick --quiet --yes --workers 2

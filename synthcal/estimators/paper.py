@@ -308,6 +308,8 @@ class PaperEstimator:
         self._fitted: dict[str, Any] | None = None
         self._held_out: TrainingData | None = None
         self._scene_ids: Tensor | None = None
+        # The validation items' true views, drawn once per fit: the same for every rate (:meth:`_scorer`).
+        self._true_views: Tensor | None = None
         # The current learning rate's validation examples (:meth:`_validation_examples`).
         self._validation: tuple[StnExamples, Tensor] | None = None
 
@@ -446,6 +448,7 @@ class PaperEstimator:
         data, keys = self._data(train, dictionary, scene)
         self._held_out = None if validation is None else self._validation_data(validation, data)
         self._scene_ids = torch.from_numpy(np.asarray(scene.semantic))  # what validation_iou draws
+        self._true_views = None
         if validation is not None and self.uses_unet:  # only the UNet's cache key reads it
             keys["held_out"] = held_out_cache_key(np.asarray(validation.semantics), np.asarray(validation.images))
         grid = (s.learning_rate,) if s.select is None else s.select.learning_rate
@@ -529,7 +532,9 @@ class PaperEstimator:
         examples, homographies = self._validation_examples(siamese, unet, embedding)
         if self.settings.selection_score == "iou":
             scene = cast(Tensor, self._scene_ids)
-            truth = true_views(examples, scene)  # drawn once: every epoch's score reads them
+            if self._true_views is None:  # they depend on the held-out homographies only, not on the rate
+                self._true_views = true_views(examples, scene)
+            truth = self._true_views
             return lambda stn: 1.0 - validation_iou(stn, examples, homographies, scene, truth)
         criterion = warp_loss(WARP_LOSS_NAMES[self.loss], self.settings.class_reduction)
         return lambda stn: validation_loss(stn, examples, homographies, criterion)

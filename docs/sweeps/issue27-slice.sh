@@ -246,3 +246,15 @@ step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-
 #      twenty-fourth session (10 runs in 55 min; appended to docs/results/runs_twentyfourth_iou.csv)
 # step $S bench --datasets intersection-2 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
 #      --data data --results results-iou --profile quick --quiet --yes --workers 2
+# ---- 2026-11-28 (twenty-fifth session; clone at e8eb178, results/) ----
+# 15p. end-to-end Top-Dice on mixed-1: done (10 runs in 55 min; archive docs/results/runs_twentyfifth.csv)
+step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss top-dice $SEL $COMMON --workers 2
+# 15q. World Cup 2014, every loss step by step and end to end, on this clone (its store and splits from
+#      `generate soccer worldcup2014 --splits`: 42 of the 209 train_val frames validate per seed)
+for training in step-by-step end-to-end; do
+  for loss in top-mse mse dice top-dice; do
+    step $S bench --datasets worldcup2014 --estimator sha2020 proposed --training $training --loss $loss $SEL $COMMON --workers 2
+  done
+done
+# 15r. end-to-end MSE on mixed-1
+step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2

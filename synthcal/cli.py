@@ -692,8 +692,8 @@ def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int, fixe
 
 def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
     """One line: the runs to do × their estimated minutes, from the recorded times of finished runs
-    (:func:`synthcal.eval.harness.expected_seconds`: those alike in estimator, training, segmentation and
-    device, else the estimator's); whether to go on."""
+    (:func:`synthcal.eval.harness.expected_seconds`: those alike in estimator, training, segmentation,
+    device and dataset, else in all but the dataset, else the estimator's); whether to go on."""
     from statistics import mean
 
     from synthcal.eval.harness import expected_seconds, recorded_seconds

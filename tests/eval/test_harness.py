@@ -794,23 +794,29 @@ def test_invalid_truth_in_a_store_is_one_line_naming_it(data, tmp_path, monkeypa
 
 
 def test_a_sweep_is_timed_by_the_finished_runs_most_alike(tmp_path):
-    """The preview's estimate reads the finished runs with the same estimator, training, segmentation and
-    device (the proposed model's end-to-end runs took twice its step-by-step ones in one folder, twenty-first
-    session), and only without such runs every run of the estimator."""
+    """The preview's estimate reads the finished runs with the same estimator, training, segmentation, device
+    and dataset (the proposed model's end-to-end runs took twice its step-by-step ones in one folder, twenty-first
+    session; a World Cup 2014 run a quarter of an intersection's, twenty-fifth), then those alike but in another
+    dataset, and only without such runs every run of the estimator."""
     write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=400.0)
     write_run(tmp_path, "proposed", "dice", 1, 0.6, 1e-4, seconds=500.0)
+    write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=120.0, dataset="worldcup2014")
     write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=800.0, training="end-to-end")
     write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=60.0, training="end-to-end", device="cuda")
     seconds = recorded_seconds(tmp_path)
 
     def run(training: str, segmentation: str = "ground-truth", device: str | None = None,
-            estimator: str = "proposed") -> Run:
-        return Run(dataset="intersection-1", store="s.zarr", mixed=None, store_hash="h", estimator=estimator,
+            estimator: str = "proposed", dataset: str = "intersection-1") -> Run:
+        return Run(dataset=dataset, store="s.zarr", mixed=None, store_hash="h", estimator=estimator,
                    model=estimator, seed=2, training=training, segmentation=segmentation, device=device)
 
     assert expected_seconds(run("step-by-step"), seconds) == 450.0
+    assert expected_seconds(run("step-by-step", dataset="worldcup2014"), seconds) == 120.0
     assert expected_seconds(run("end-to-end"), seconds) == 800.0
     assert expected_seconds(run("end-to-end", device="cuda"), seconds) == 60.0
+    # no finished run of the dataset: the runs alike in the other datasets
+    assert expected_seconds(run("step-by-step", dataset="mixed-1"), seconds) == pytest.approx(1020.0 / 3)
+    assert expected_seconds(run("end-to-end", dataset="worldcup2014"), seconds) == 800.0
     # no finished run alike: every run of the estimator (the UNet's runs would be slower; nothing better is known)
-    assert expected_seconds(run("step-by-step", segmentation="unet"), seconds) == pytest.approx(1760.0 / 4)
+    assert expected_seconds(run("step-by-step", segmentation="unet"), seconds) == pytest.approx(1880.0 / 5)
     assert expected_seconds(run("step-by-step", estimator="sha2020"), seconds) is None

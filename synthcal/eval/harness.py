@@ -413,7 +413,8 @@ def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers
 
 # What a run's time depends on most: the estimator, how it trains, whether a UNet is in the loop, the device
 # (a proposed run took 7 min step-by-step on mixed-4 and 13 min end-to-end on intersection-1, on one core), and
-# then the dataset (World Cup 2014 trains on 167 frames, an intersection on 1,500: 2 against 9 min a sha2020 run).
+# then the dataset (World Cup 2014 trains on 167 frames, `mixed-1` on 1,500: 4 against 9 min a sha2020 run
+# end to end).
 # The dataset comes last: a run whose dataset has no finished run alike is timed by its settings' runs elsewhere.
 TIMING_KEYS = ("estimator", "training", "segmentation", "device", "dataset")
 

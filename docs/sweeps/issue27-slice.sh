@@ -256,9 +256,9 @@ for training in step-by-step end-to-end; do
     step $S bench --datasets worldcup2014 --estimator sha2020 proposed --training $training --loss $loss $SEL $COMMON --workers 2
   done
 done
-# ---- 15q: the four step-by-step cells and end-to-end Top-MSE and MSE done in the twenty-fifth session (60 runs in
-#      72 min; archive docs/results/runs_twentyfifth_worldcup.csv, with the template rows:
-#      bench --datasets worldcup2014 --estimator retrieved oracle-template template $SEL $COMMON); Dice and Top-Dice
-#      end to end were running at the stop ----
+# ---- 15q: the four step-by-step cells and end-to-end Top-MSE, MSE and Dice done in the twenty-fifth session (70 runs
+#      in 97 min; archive docs/results/runs_twentyfifth_worldcup.csv, with the template rows:
+#      bench --datasets worldcup2014 --estimator retrieved oracle-template template $SEL $COMMON); Top-Dice end to end
+#      was running at the stop ----
 # 15r. end-to-end MSE on mixed-1
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2

@@ -259,6 +259,13 @@ done
 # ---- 15q: the four step-by-step cells and end-to-end Top-MSE, MSE and Dice done in the twenty-fifth session (70 runs
 #      in 97 min; archive docs/results/runs_twentyfifth_worldcup.csv, with the template rows:
 #      bench --datasets worldcup2014 --estimator retrieved oracle-template template $SEL $COMMON); Top-Dice end to end
-#      was running at the stop ----
+#      was running at the stop; done in the twenty-sixth (its 8 unfinished runs in 19 min, rows added to the same
+#      archive) ----
 # 15r. end-to-end MSE on mixed-1
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2
+# 15s. the paper's matching table on World Cup 2014: the proposed model with MSE matching, every loss, step by step
+#      then end to end (pairs with 15q's Top-MSE-matching runs: --paired matching_score=top-mse matching_score=mse)
+step $S bench --datasets worldcup2014 --estimator proposed --training step-by-step --loss top-mse mse top-dice dice --matching mse $SEL $COMMON --workers 2
+for loss in top-mse mse top-dice dice; do
+  step $S bench --datasets worldcup2014 --estimator proposed --training end-to-end --loss $loss --matching mse $SEL $COMMON --workers 2
+done

@@ -263,6 +263,7 @@ done
 #      archive) ----
 # 15r. end-to-end MSE on mixed-1
 step $S bench --datasets mixed-1 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2
+# ---- 15r: done in the twenty-sixth session (10 runs in 58 min; archive docs/results/runs_twentysixth.csv) ----
 # 15s. the paper's matching table on World Cup 2014: the proposed model with MSE matching, every loss, step by step
 #      then end to end (pairs with 15q's Top-MSE-matching runs: --paired matching_score=top-mse matching_score=mse)
 step $S bench --datasets worldcup2014 --estimator proposed --training step-by-step --loss top-mse mse top-dice dice --matching mse $SEL $COMMON --workers 2

@@ -270,6 +270,5 @@ step $S bench --datasets worldcup2014 --estimator proposed --training step-by-st
 for loss in top-mse mse top-dice dice; do
   step $S bench --datasets worldcup2014 --estimator proposed --training end-to-end --loss $loss --matching mse $SEL $COMMON --workers 2
 done
-# ---- 15s: done in the twenty-sixth session but end-to-end Dice (step by step 20 runs in 21 min, end to end Top-MSE,
-#      MSE and Top-Dice 15 runs in 42 min; rows added to docs/results/runs_twentyfifth_worldcup.csv); end-to-end Dice
-#      was running at the stop ----
+# ---- 15s: done in the twenty-sixth session (step by step 20 runs in 21 min, end to end 20 runs in 55 min; rows added
+#      to docs/results/runs_twentyfifth_worldcup.csv) ----

@@ -272,3 +272,10 @@ for loss in top-mse mse top-dice dice; do
 done
 # ---- 15s: done in the twenty-sixth session (step by step 20 runs in 21 min, end to end 20 runs in 55 min; rows added
 #      to docs/results/runs_twentyfifth_worldcup.csv) ----
+# ---- 2026-11-28 (twenty-seventh session; clone at e8eb178, results/) ----
+# 15t. Top-Dice step by step on intersections 3, 4 and 5 (the paper's models table; both models)
+for dataset in intersection-3 intersection-4 intersection-5; do
+  step $S bench --datasets $dataset --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
+done
+# ---- 15t: intersection-3 done in the twenty-seventh session (10 runs in 49 min; archive
+#      docs/results/runs_twentyseventh.csv) ----

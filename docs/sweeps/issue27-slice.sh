@@ -277,5 +277,5 @@ done
 for dataset in intersection-3 intersection-4 intersection-5; do
   step $S bench --datasets $dataset --estimator sha2020 proposed --loss top-dice $SEL $COMMON --workers 2
 done
-# ---- 15t: intersections 3 and 4 done in the twenty-seventh session (10 runs in 49 and 51 min; archive
+# ---- 15t: done in the twenty-seventh session (10 runs in 49, 51 and 55 min; archive
 #      docs/results/runs_twentyseventh.csv) ----

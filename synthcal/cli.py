@@ -693,18 +693,26 @@ def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int, fixe
 def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
     """One line: the runs to do × their estimated minutes, from the recorded times of finished runs
     (:func:`synthcal.eval.harness.expected_seconds`: those alike in estimator, training, segmentation,
-    device and dataset, else in all but the dataset, else the estimator's); whether to go on."""
+    device, train images and dataset, else in all but the dataset, else in all but the dataset and the
+    train images, else the estimator's); whether to go on."""
     from statistics import mean
 
-    from synthcal.eval.harness import expected_seconds, recorded_seconds
+    from synthcal.eval.harness import expected_seconds, recorded_seconds, split_sizes, trained_images
 
     if not todo:
         return True
     seconds = recorded_seconds(args.results) if args.results.is_dir() else {}
     by_estimator: dict[str, list[float]] = {}
     unknown: dict[str, None] = {}  # an estimator with no finished run at all (ordered, once each)
+    train_sizes: dict[tuple[str, int, str], int] = {}  # the train samples used, per store, seed and limits
     for run in todo:
-        expected = expected_seconds(run, seconds)
+        train = None
+        if run.settings is not None:
+            where = (run.store, run.seed, str(run.limits))
+            if where not in train_sizes:
+                train_sizes[where] = split_sizes(run)["train"][0]
+            train = train_sizes[where]
+        expected = expected_seconds(run, seconds, trained_images(run.settings, train))
         if expected is None:
             unknown[run.estimator] = None
         else:

@@ -152,6 +152,7 @@ __all__ = [
     "recorded_seconds",
     "expected_seconds",
     "timing_key",
+    "trained_images",
     "TIMING_KEYS",
     "training_budget",
     "chosen_text",
@@ -412,18 +413,32 @@ def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers
 
 
 # What a run's time depends on most: the estimator, how it trains, whether a UNet is in the loop, the device
-# (a proposed run took 7 min step-by-step on mixed-4 and 13 min end-to-end on intersection-1, on one core), and
-# then the dataset (World Cup 2014 trains on 167 frames, `mixed-1` on 1,500: 4 against 9 min a sha2020 run
-# end to end).
-# The dataset comes last: a run whose dataset has no finished run alike is timed by its settings' runs elsewhere.
-TIMING_KEYS = ("estimator", "training", "segmentation", "device", "dataset")
+# (a proposed run took 7 min step-by-step on mixed-4 and 13 min end-to-end on intersection-1, on one core), then
+# how many images it trains on (World Cup 2014 trains on 167 frames, `mixed-1` on 1,500: 4 against 9 min a sha2020
+# run end to end; a sweep of intersection-3 timed by both kinds of runs was told 33 min and took 49, twenty-seventh
+# session), and last the dataset. A run whose dataset has no finished run alike is timed by its settings' runs
+# elsewhere on as many train images, else on any number.
+TIMING_KEYS = ("estimator", "training", "segmentation", "device", "train_images", "dataset")
 
 
-def timing_key(run: Run | dict[str, Any]) -> tuple[str, ...]:
-    """A run's (or a run record's ``run`` mapping's) values of :data:`TIMING_KEYS`, as strings."""
-    if isinstance(run, dict):
-        return tuple(str(run.get(key)) for key in TIMING_KEYS)
-    return tuple(str(getattr(run, key)) for key in TIMING_KEYS)
+def trained_images(settings: dict[str, Any] | None, train: int | None) -> int | None:
+    """How many train images a bundled model trains on: the train split's ``train`` samples used, under
+    the settings' ``max_train``; None for an estimator without training settings or an unknown size.
+
+    >>> trained_images({"max_train": 1500}, 3000), trained_images({}, 167), trained_images(None, 3000)
+    (1500, 167, None)
+    """
+    if settings is None or train is None:
+        return None
+    cap = settings.get("max_train")
+    return min(train, cap) if cap else train
+
+
+def timing_key(run: Run | dict[str, Any], train_images: int | None) -> tuple[str, ...]:
+    """A run's (or a run record's ``run`` mapping's) values of :data:`TIMING_KEYS`, as strings; the
+    train images (:func:`trained_images`) given, since a run's record keeps them apart from the run."""
+    values = run if isinstance(run, dict) else asdict(run)
+    return tuple(str(train_images if key == "train_images" else values.get(key)) for key in TIMING_KEYS)
 
 
 def recorded_seconds(results: str | Path) -> dict[tuple[str, ...], list[float]]:
@@ -433,20 +448,29 @@ def recorded_seconds(results: str | Path) -> dict[tuple[str, ...], list[float]]:
     for path in sorted((Path(results) / "runs").glob("*/run.json")):
         record = read_record(path)
         if record is not None and record["status"] == "ok" and isinstance(record.get("seconds"), (int, float)):
-            seconds.setdefault(timing_key(record["run"]), []).append(float(record["seconds"]))
+            train = trained_images(record["run"].get("settings"), (record.get("sizes") or {}).get("train"))
+            seconds.setdefault(timing_key(record["run"], train), []).append(float(record["seconds"]))
     return seconds
 
 
-def expected_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]]) -> float | None:
+def expected_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]],
+                     train_images: int | None = None) -> float | None:
     """A run's expected seconds from :func:`recorded_seconds`: the mean of the finished runs with its
-    :func:`timing_key`, else of those alike in all but the dataset, else of every finished run of its
-    estimator; None when its estimator has none."""
-    key = timing_key(run)
+    :func:`timing_key`, else of those alike in all but the dataset (so on as many train images), else of
+    those alike in all but the dataset and the train images, else of every finished run of its estimator;
+    None when its estimator has none.
+
+    Args:
+        run: the run to time.
+        seconds: :func:`recorded_seconds` of the results folder.
+        train_images: what the run trains on (:func:`trained_images`; None: it does not train).
+    """
+    key = timing_key(run, train_images)
 
     def alike(length: int) -> list[float]:
         return [value for other, values in seconds.items() if other[:length] == key[:length] for value in values]
 
-    found = alike(len(key)) or alike(len(key) - 1) or alike(1)
+    found = alike(len(key)) or alike(len(key) - 1) or alike(len(key) - 2) or alike(1)
     return sum(found) / len(found) if found else None
 
 

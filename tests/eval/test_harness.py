@@ -29,6 +29,7 @@ from synthcal.eval.harness import (
     run_sweep,
     run_threads,
     table_runs,
+    trained_images,
 )
 from synthcal.eval.runs import Run
 from synthcal.eval.tables import format_table
@@ -820,3 +821,20 @@ def test_a_sweep_is_timed_by_the_finished_runs_most_alike(tmp_path):
     # no finished run alike: every run of the estimator (the UNet's runs would be slower; nothing better is known)
     assert expected_seconds(run("step-by-step", segmentation="unet"), seconds) == pytest.approx(1880.0 / 5)
     assert expected_seconds(run("step-by-step", estimator="sha2020"), seconds) is None
+
+
+def test_a_sweep_without_runs_of_its_dataset_is_timed_by_runs_on_as_many_train_images(tmp_path):
+    """Runs of other datasets time a new dataset's runs by those that trained on as many images: a sweep of
+    intersection-3 timed by World Cup 2014's runs (167 frames) and mixed-1's (1,500 of 3,000) was told 33 min
+    and took 49 (twenty-seventh session). Only without runs on as many images, every one alike but in size."""
+    write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=240.0, dataset="worldcup2014", train=167)
+    write_run(tmp_path, "proposed", "dice", 0, 0.6, 1e-4, seconds=540.0, dataset="mixed-1", train=3000)
+    write_run(tmp_path, "proposed", "dice", 1, 0.6, 1e-4, seconds=600.0, dataset="mixed-1", train=3000)
+    seconds = recorded_seconds(tmp_path)
+    assert trained_images({"max_train": 1500}, 3000) == 1500 and trained_images(None, 3000) is None
+    run = Run(dataset="intersection-3", store="s.zarr", mixed=None, store_hash="h", estimator="proposed",
+              model="proposed", seed=2, training="step-by-step", segmentation="ground-truth")
+    assert expected_seconds(run, seconds, train_images=1500) == 570.0
+    assert expected_seconds(run, seconds, train_images=167) == 240.0
+    # on a number of images no run trained on: every run alike in estimator, training, segmentation and device
+    assert expected_seconds(run, seconds, train_images=500) == 460.0

@@ -279,3 +279,11 @@ for dataset in intersection-3 intersection-4 intersection-5; do
 done
 # ---- 15t: done in the twenty-seventh session (10 runs in 49, 51 and 55 min; archive
 #      docs/results/runs_twentyseventh.csv) ----
+# ---- 2026-11-28 (twenty-eighth session; the machine was reset: the clone at e8eb178 made again, the stores regenerated
+#      by step 0, a new results/) ----
+# 15u. Dice step by step on intersections 3, 4 and 5 (pairs with 15t's Top-Dice runs: --paired loss=top-dice loss=dice)
+for dataset in intersection-3 intersection-4 intersection-5; do
+  step $S bench --datasets $dataset --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
+done
+# ---- 15u: intersection-3 done in the twenty-eighth session (10 runs in 36 min; archive
+#      docs/results/runs_twentyeighth.csv) ----

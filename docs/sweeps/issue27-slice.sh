@@ -285,5 +285,5 @@ done
 for dataset in intersection-3 intersection-4 intersection-5; do
   step $S bench --datasets $dataset --estimator sha2020 proposed --loss dice $SEL $COMMON --workers 2
 done
-# ---- 15u: intersections 3 and 4 done in the twenty-eighth session (10 runs in 36 and 35 min; archive
+# ---- 15u: done in the twenty-eighth session (10 runs in 36, 35 and 34 min; archive
 #      docs/results/runs_twentyeighth.csv) ----

@@ -287,3 +287,9 @@ for dataset in intersection-3 intersection-4 intersection-5; do
 done
 # ---- 15u: done in the twenty-eighth session (10 runs in 36, 35 and 34 min; archive
 #      docs/results/runs_twentyeighth.csv) ----
+# 15v. the matching table with Dice on intersections 3 and 4: the proposed model with MSE matching (pairs with 15u's
+#      Top-MSE-matching runs: --paired matching_score=top-mse matching_score=mse)
+for dataset in intersection-3 intersection-4; do
+  step $S bench --datasets $dataset --estimator proposed --loss dice --matching mse $SEL $COMMON --workers 2
+done
+# ---- 15v: intersection-3 done in the twenty-eighth session (5 runs in 26 min; archive docs/results/runs_twentyeighth.csv) ----

@@ -122,6 +122,7 @@ from synthcal.eval.runs import (
     resolve_device,
     split_sizes,
     table_label,
+    trained_images,
     training_budget,
 )
 from synthcal.eval.scoring import evaluate, summarize
@@ -421,23 +422,10 @@ def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers
 TIMING_KEYS = ("estimator", "training", "segmentation", "device", "train_images", "dataset")
 
 
-def trained_images(settings: dict[str, Any] | None, train: int | None) -> int | None:
-    """How many train images a bundled model trains on: the train split's ``train`` samples used, under
-    the settings' ``max_train``; None for an estimator without training settings or an unknown size.
-
-    >>> trained_images({"max_train": 1500}, 3000), trained_images({}, 167), trained_images(None, 3000)
-    (1500, 167, None)
-    """
-    if settings is None or train is None:
-        return None
-    cap = settings.get("max_train")
-    return min(train, cap) if cap else train
-
-
 def timing_key(run: Run | dict[str, Any], train_images: int | None) -> tuple[str, ...]:
     """A run's (or a run record's ``run`` mapping's) values of :data:`TIMING_KEYS`, as strings; the
     train images (:func:`trained_images`) given, since a run's record keeps them apart from the run."""
-    values = run if isinstance(run, dict) else asdict(run)
+    values = run if isinstance(run, dict) else {key: getattr(run, key, None) for key in TIMING_KEYS}
     return tuple(str(train_images if key == "train_images" else values.get(key)) for key in TIMING_KEYS)
 
 

@@ -112,7 +112,7 @@ from synthcal.store.splits import (
 )
 
 __all__ = ["AXES", "Run", "dataset_store", "estimator_label", "resolve_device", "check_device", "expand_runs",
-           "split_sizes", "plan_lines", "prefix_positions", "training_budget", "chosen_text", "constructor_parameters", "table_label"]
+           "split_sizes", "trained_images", "plan_lines", "prefix_positions", "training_budget", "chosen_text", "constructor_parameters", "table_label"]
 
 # Run fields an estimator may take as constructor keywords (values: synthcal.config).
 AXES = ("training", "loss", "matching", "segmentation")
@@ -431,6 +431,19 @@ def split_sizes(run: Run) -> dict[str, tuple[int, int]]:
     return sizes
 
 
+def trained_images(settings: dict[str, Any] | None, train: int | None) -> int | None:
+    """How many train images a bundled model trains on: the train split's ``train`` samples used, under
+    the settings' ``max_train``; None for an estimator without training settings or an unknown size.
+
+    >>> trained_images({"max_train": 1500}, 3000), trained_images({}, 167), trained_images(None, 3000)
+    (1500, 167, None)
+    """
+    if settings is None or train is None:
+        return None
+    cap = settings.get("max_train")
+    return min(train, cap) if cap else train
+
+
 def _span(values: Iterable[int]) -> str:
     """``128`` or ``120–128`` (several seeds with different sizes)."""
     values = sorted(set(values))
@@ -460,7 +473,7 @@ def plan_lines(runs: Sequence[Run]) -> list[str]:
                  f"of {_span(s[split][1] for s in seeds.values())}" for split in ("train", "test", "dictionary")]
         line = f"  {dataset} (seeds {', '.join(map(str, seeds))}): {', '.join(parts)}"
         if settings is not None:
-            used = (min(s["train"][0], cap) if cap else s["train"][0] for s in seeds.values())
+            used = (trained_images(settings, s["train"][0]) or 0 for s in seeds.values())
             line += f"; the bundled models train on {_span(used)}" + (f" (max_train {cap:,})" if cap else "")
         lines.append(line)
     kinds = dict.fromkeys((run.training, run.segmentation) for run in runs if run.settings is not None)
@@ -501,10 +514,9 @@ def training_budget(record: dict[str, Any]) -> str | None:
         stages = ([("UNet", "unet_epochs")] if run.get("segmentation") == "unet" else []) + \
                  [("Siamese", "siamese_epochs"), ("STN", "stn_epochs")]
         parts = ["step-by-step " + ", ".join(f"{name} {settings.get(key)}" for name, key in stages) + " epochs"]
-    train = (record.get("sizes") or {}).get("train")
-    cap = settings.get("max_train")
+    train = trained_images(settings, (record.get("sizes") or {}).get("train"))
     if train is not None:
-        parts.append(f"{min(train, cap) if cap else train} train images")
+        parts.append(f"{train} train images")
     if settings.get("work_size"):
         width, height = settings["work_size"]
         parts.append(f"at {width} × {height}")

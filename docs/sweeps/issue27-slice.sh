@@ -292,4 +292,4 @@ done
 for dataset in intersection-3 intersection-4; do
   step $S bench --datasets $dataset --estimator proposed --loss dice --matching mse $SEL $COMMON --workers 2
 done
-# ---- 15v: intersection-3 done in the twenty-eighth session (5 runs in 26 min; archive docs/results/runs_twentyeighth.csv) ----
+# ---- 15v: done in the twenty-eighth session (5 runs in 26 and 24 min; archive docs/results/runs_twentyeighth.csv) ----

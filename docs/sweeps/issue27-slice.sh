@@ -302,5 +302,5 @@ for dataset in intersection-3 intersection-4; do
   step $S bench --datasets $dataset --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
 done
 # ---- 15w: intersection-5's matching cell done in the twenty-ninth session (5 runs in 34 min; appended to
-#      docs/results/runs_twentyeighth.csv); end to end on intersection-3 too (10 runs in 36 min; archive
+#      docs/results/runs_twentyeighth.csv); end to end on intersections 3 and 4 too (10 runs in 36 min each; archive
 #      docs/results/runs_twentyninth.csv) ----

@@ -294,13 +294,13 @@ for dataset in intersection-3 intersection-4; do
 done
 # ---- 15v: done in the twenty-eighth session (5 runs in 26 and 24 min; archive docs/results/runs_twentyeighth.csv) ----
 # ---- 2026-11-28 (twenty-ninth session; the same clone, stores and results/) ----
-# 15w. the matching table with Dice on intersection-5, then end to end with Top-MSE on intersections 3 and 4 (the cell's
+# 15w. the matching table with Dice on intersection-5, then end to end with Top-MSE on intersections 3–5 (the cell's
 #      claim, proposed − sha2020, pairs within the step; the step-by-step Top-MSE runs of the fifth and sixth sessions
 #      survive only as docs/results/report_iou.csv's means, so end to end against step by step is unpaired there)
 step $S bench --datasets intersection-5 --estimator proposed --loss dice --matching mse $SEL $COMMON --workers 2
-for dataset in intersection-3 intersection-4; do
+for dataset in intersection-3 intersection-4 intersection-5; do
   step $S bench --datasets $dataset --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
 done
 # ---- 15w: intersection-5's matching cell done in the twenty-ninth session (5 runs in 34 min; appended to
-#      docs/results/runs_twentyeighth.csv); end to end on intersections 3 and 4 too (10 runs in 36 min each; archive
+#      docs/results/runs_twentyeighth.csv); end to end on intersections 3, 4 and 5 too (10 runs in 36 min each; archive
 #      docs/results/runs_twentyninth.csv) ----

@@ -304,3 +304,15 @@ done
 # ---- 15w: intersection-5's matching cell done in the twenty-ninth session (5 runs in 34 min; appended to
 #      docs/results/runs_twentyeighth.csv); end to end on intersections 3, 4 and 5 too (10 runs in 36 min each; archive
 #      docs/results/runs_twentyninth.csv) ----
+# ---- 2026-11-28 (thirtieth session; the same clone, stores and results/) ----
+# 15x. end to end with Dice, then Top-Dice and MSE, on intersections 3–5: the cell's claim, proposed − sha2020, pairs
+#      within the step, and end to end against step by step pairs with 15u's Dice, 15t's Top-Dice and the eleventh and
+#      twelfth sessions' MSE runs (the same run ids: --against docs/results/runs_twentyeighth.csv, runs_twentyseventh.csv,
+#      runs_eleventh.csv, runs_twelfth.csv --paired training=end-to-end training=step-by-step)
+for loss in dice top-dice mse; do
+  for dataset in intersection-3 intersection-4 intersection-5; do
+    step $S bench --datasets $dataset --estimator sha2020 proposed --training end-to-end --loss $loss $SEL $COMMON --workers 2
+  done
+done
+# ---- 15x: Dice on intersection-3 done in the thirtieth session (10 runs in 35 min; appended to
+#      docs/results/runs_twentyninth.csv) ----

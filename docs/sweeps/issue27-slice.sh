@@ -314,5 +314,5 @@ for loss in dice top-dice mse; do
     step $S bench --datasets $dataset --estimator sha2020 proposed --training end-to-end --loss $loss $SEL $COMMON --workers 2
   done
 done
-# ---- 15x: Dice on intersections 3 and 4 done in the thirtieth session (10 runs in 35 and 36 min; appended to
+# ---- 15x: Dice on intersections 3, 4 and 5 done in the thirtieth session (10 runs in 35, 36 and 38 min; appended to
 #      docs/results/runs_twentyninth.csv) ----

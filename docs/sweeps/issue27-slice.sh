@@ -314,5 +314,6 @@ for loss in dice top-dice mse; do
     step $S bench --datasets $dataset --estimator sha2020 proposed --training end-to-end --loss $loss $SEL $COMMON --workers 2
   done
 done
-# ---- 15x: Dice on intersections 3, 4 and 5 done in the thirtieth session (10 runs in 35, 36 and 38 min; appended to
+# ---- 15x: Dice on intersections 3, 4 and 5 and Top-Dice on intersection-3 done in the thirtieth session (10 runs in
+#      35, 36, 38 and 38 min; appended to
 #      docs/results/runs_twentyninth.csv) ----

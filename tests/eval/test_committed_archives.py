@@ -97,6 +97,7 @@ LOSS_PAIRS = [
     ("runs_twentyfirst_gpu.csv", None, "top-dice", "dice"),
     ("runs_twentysecond.csv", None, "top-dice", "dice"),
     ("runs_twentysecond.csv", None, "top-mse", "mse"),
+    ("runs_twentyninth.csv", None, "top-dice", "dice"),
 ]
 
 

@@ -98,6 +98,7 @@ LOSS_PAIRS = [
     ("runs_twentysecond.csv", None, "top-dice", "dice"),
     ("runs_twentysecond.csv", None, "top-mse", "mse"),
     ("runs_twentyninth.csv", None, "top-dice", "dice"),
+    ("runs_twentyninth.csv", None, "top-mse", "mse"),
 ]
 
 

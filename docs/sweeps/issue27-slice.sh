@@ -317,4 +317,4 @@ done
 # ---- 15x: Dice on intersections 3, 4 and 5 and Top-Dice on intersection-3 done in the thirtieth session (10 runs in
 #      35, 36, 38 and 38 min), Top-Dice on intersection-4 across the thirtieth and thirty-first (the last six runs in
 #      23 min), Top-Dice on intersection-5 and MSE on intersections 3 and 4 in the thirty-first (34, 39 and
-#      37 min); appended to docs/results/runs_twentyninth.csv ----
+#      37 min), MSE on intersection-5 across the thirty-first and thirty-second (the last six runs in 24 min); appended to docs/results/runs_twentyninth.csv ----

@@ -37,7 +37,7 @@ from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle
 
 __all__ = ["ReportError", "finished_runs", "run_folders", "results_tables", "reproduction_report", "runs_layout",
            "split_by", "one_label", "background_floors", "per_image_reader",
-           "paired_sides", "paired_report", "paired_numbers", "report_numbers"]
+           "paired_sides", "paired_report", "paired_numbers", "report_numbers", "budget_differences"]
 
 # The reading whose tables state the all-background floor: the one that rewards predicting background.
 FLOOR_READINGS = ("iou_weighted",)
@@ -464,4 +464,43 @@ def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
     note = (f"Across two results folders: A, {a}, the runs of {results}; B, {b}, the runs of {other_results}. "
             f"Paired on the dataset, seed and the other keys above, A and B also differ in whatever settings "
             f"or code the two folders' runs differ in (each run's run.json records them).")
+    only_a, only_b = budget_differences(frame, key, a, b)
+    if only_a or only_b:
+        def quoted(clauses: list[str]) -> str:
+            return ", ".join(f'"{clause}"' for clause in clauses) or "nothing"
+
+        note += (f" The paired runs' recorded training budgets differ: only A's record {quoted(only_a)}; only B's "
+                 f"{quoted(only_b)}.")
     return text.rstrip("\n") + "\n" + wrap_caption(note, fmt) + "\n"
+
+
+def budget_differences(frame: pd.DataFrame, key: str, a: str, b: str) -> tuple[list[str], list[str]]:
+    """The clauses of the training budgets (:func:`synthcal.eval.runs.training_budget`) that only side A's, or
+    only side B's, paired runs record: what else than ``key`` two folders' pairs differ in, as far as the runs
+    say (another selection score, train-set cap or resolution — which no pair key shows).
+
+    Args:
+        frame: the runs of both sides, ``key`` holding ``a`` or ``b`` (:func:`_across_folders`), with a
+            ``budget`` column where the runs recorded one.
+
+    Returns:
+        The clauses of A's budgets absent from every B budget it pairs with, and the reverse; sorted, empty
+        where the budgets agree or none is recorded.
+
+    >>> runs = pd.DataFrame({"dataset": ["d", "d"], "model": ["m", "m"], "training": ["t", "t"],
+    ...     "loss": ["mse", "mse"], "matching_score": ["mse", "mse"], "segmentation": ["g", "g"],
+    ...     "profile": ["quick", "quick"], "seed": [0, 0], "selection": ["A", "B"],
+    ...     "budget": ["24 epochs; at 128 × 72", "24 epochs; at 128 × 72; fits ranked by validation iou"]})
+    >>> budget_differences(runs, "selection", "A", "B")
+    ([], ['fits ranked by validation iou'])
+    """
+    if "budget" not in frame:
+        return [], []
+    others = [k for k in PAIR_KEYS if k != key]
+    sides = [frame.loc[frame[key] == side, [*others, "seed", "budget"]] for side in (a, b)]
+    pairs = sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
+    clauses = [[set(str(text).split("; ")) if pd.notna(text) else set() for text in pairs[f"budget_{side}"]]
+               for side in ("a", "b")]
+    only_a = set().union(*(x - y for x, y in zip(*clauses, strict=True)))
+    only_b = set().union(*(y - x for x, y in zip(*clauses, strict=True)))
+    return sorted(only_a), sorted(only_b)

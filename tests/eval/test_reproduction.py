@@ -160,6 +160,24 @@ def test_paired_against_another_folder_pairs_the_same_cell_and_seed_across_folde
     assert "is the results folder itself" in capsys.readouterr().err
 
 
+
+def test_paired_against_another_folder_names_the_budget_clauses_only_one_side_records(tmp_path, capsys):
+    """Fits ranked by validation `iou` in one folder, by `L_warp` in the other: no pair key shows the selection
+    score, so the runs pair; the caption says what else the pairs differ in, and says nothing where they agree."""
+    warp, iou, same = tmp_path / "warp", tmp_path / "iou", tmp_path / "same"
+    budget = {"siamese_epochs": 10, "stn_epochs": 24}
+    for seed in SEEDS:
+        _write_run(warp, "proposed", "top-mse", seed, BASE[seed], 0.001, 100.0, settings=budget)
+        _write_run(iou, "proposed", "top-mse", seed, BASE[seed] + 0.01, 0.001, 100.0,
+                   settings={**budget, "selection_score": "iou"})
+        _write_run(same, "proposed", "top-mse", seed, BASE[seed] + 0.02, 0.001, 100.0, settings=budget)
+    assert main(["table", str(iou), "--against", str(warp), "--paired", "loss=top-mse", "loss=top-mse"]) == 0
+    caption = " ".join(capsys.readouterr().out.split())
+    assert ('training budgets differ: only A\'s record "fits ranked by validation iou"; only B\'s nothing.'
+            in caption)
+    assert main(["table", str(same), "--against", str(warp), "--paired", "loss=top-mse", "loss=top-mse"]) == 0
+    assert "training budgets differ" not in capsys.readouterr().out
+
 @pytest.mark.parametrize("low, high, paper, expected", [
     (1.0, 3.0, 2.0, "consistent with the paper"),  # contains d
     (2.5, 3.0, 2.0, "consistent with the paper"),  # excludes 0 on d's side, not containing d

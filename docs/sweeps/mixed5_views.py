@@ -26,7 +26,9 @@ WIDTH, HEIGHT = 256, 144
 COLUMNS = [f"h{i}{j}" for i in range(3) for j in range(3)]
 MODELS = ("retrieved", "template", "sha2020_step-by-step_top-mse", "proposed_step-by-step_top-mse",
           "sha2020_step-by-step_mse", "proposed_step-by-step_mse", "sha2020_step-by-step_dice",
-          "proposed_step-by-step_dice", "sha2020_step-by-step_top-dice", "proposed_step-by-step_top-dice")
+          "proposed_step-by-step_dice", "sha2020_step-by-step_top-dice", "proposed_step-by-step_top-dice",
+          *(f"{model}_end-to-end_{loss}" for loss in ("top-mse", "mse", "dice", "top-dice")
+            for model in ("sha2020", "proposed")))
 
 MIX = sys.argv[1] if len(sys.argv) > 1 else "mixed-5"
 if not MIX.removeprefix("mixed-").isdigit() or not MIX.startswith("mixed-"):

@@ -318,3 +318,16 @@ done
 #      35, 36, 38 and 38 min), Top-Dice on intersection-4 across the thirtieth and thirty-first (the last six runs in
 #      23 min), Top-Dice on intersection-5 and MSE on intersections 3 and 4 in the thirty-first (34, 39 and
 #      37 min), MSE on intersection-5 across the thirty-first and thirty-second (the last six runs in 24 min); appended to docs/results/runs_twentyninth.csv ----
+# ---- 2026-11-29 (thirty-second session; the same clone, stores and results/) ----
+# 15y. the paper's mixes for intersections 4 and 5 end to end, Dice first (the loss under which both STNs refine the
+#      template step by step), then Top-Dice; each pairs with its step-by-step runs (mixed-4: runs_eighteenth.csv's
+#      Dice, runs_twentieth.csv's Top-Dice; mixed-5: runs_sixteenth.csv's Dice, runs_seventeenth.csv's Top-Dice) through
+#      --against ... --paired training=end-to-end training=step-by-step, and with the retrieved template
+#      (runs_fourteenth.csv, runs_fifteenth.csv) through --paired proposed retrieved
+for loss in dice top-dice; do
+  for dataset in mixed-4 mixed-5; do
+    step $S bench --datasets $dataset --estimator sha2020 proposed --training end-to-end --loss $loss $SEL $COMMON --workers 2
+  done
+done
+# ---- 15y: mixed-4 with Dice done in the thirty-second session (10 runs in 40 min; archive
+#      docs/results/runs_thirtysecond.csv) ----

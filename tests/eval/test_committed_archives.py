@@ -122,6 +122,7 @@ TRAINING_PAIRS = [
     ("runs_twentyfifth.csv", "runs_twentysecond.csv"),
     ("runs_twentysixth.csv", "runs_twentysecond.csv"),
     ("runs_twentyfifth_worldcup.csv", None),
+    ("runs_thirtysecond.csv", "runs_eighteenth.csv"),
 ]
 QUOTED_PAIRS = [
     *[(archive, against, f"loss={a}", f"loss={b}") for archive, against, a, b in LOSS_PAIRS],

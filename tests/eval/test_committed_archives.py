@@ -168,3 +168,24 @@ def test_the_verdict_tally_counts_the_verdict_table():
         n = count(column)
         said = f"under {reading} {n['opposite']} opposite, {n['not reproduced']} not reproduced, {n['consistent']} consistent"
         assert said in tally, f"{REPORT.name}: the tally does not say '{said}'"
+
+
+def _number(text: str) -> float:
+    return float(text.replace("\u2212", "-"))
+
+
+def test_the_end_to_end_counts_count_the_end_to_end_table():
+    """reproduction.md's "End to end against step by step" counts of the proposed model's cells against the rows of
+    its table (`iou`: the cell, archives, paper, interval, verdict, ...)."""
+    text = REPORT.read_text(encoding="utf-8")
+    section = text.split("## End to end against step by step", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("| ").split(" | ") for line in section.splitlines()
+            if line.startswith("| ") and not line.startswith("| cell")]
+    proposed = [row for row in rows if row[0].endswith(", proposed")]
+    means = [_number(row[3].split(" [")[0]) for row in proposed]
+    lows, highs = zip(*(map(_number, row[3].split(" [")[1].rstrip("]").split(", ")) for row in proposed), strict=True)
+    assert not any(low > 0 for low in lows), "a proposed row is above by an interval that excludes 0"
+    prose = " ".join(section.split())
+    assert f"In none of the proposed model's {len(proposed)} paired cells" in prose
+    assert f"its mean is below in {sum(mean < 0 for mean in means)}," in prose
+    assert f"excludes 0 in {sum(high < 0 for high in highs)} under `iou`" in prose

@@ -329,5 +329,5 @@ for loss in dice top-dice; do
     step $S bench --datasets $dataset --estimator sha2020 proposed --training end-to-end --loss $loss $SEL $COMMON --workers 2
   done
 done
-# ---- 15y: mixed-4 with Dice done in the thirty-second session (10 runs in 40 min; archive
-#      docs/results/runs_thirtysecond.csv) ----
+# ---- 15y: mixed-4 with Dice and Top-Dice done in the thirty-second session (10 runs in 40 and 37 min; archive
+#      docs/results/runs_thirtysecond.csv); mixed-5 with Dice started after them ----

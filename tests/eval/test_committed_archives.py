@@ -100,6 +100,7 @@ LOSS_PAIRS = [
     ("runs_twentysecond.csv", None, "top-mse", "mse"),
     ("runs_twentyninth.csv", None, "top-dice", "dice"),
     ("runs_twentyninth.csv", None, "top-mse", "mse"),
+    ("runs_thirtysecond.csv", None, "top-dice", "dice"),
 ]
 
 
@@ -123,6 +124,7 @@ TRAINING_PAIRS = [
     ("runs_twentysixth.csv", "runs_twentysecond.csv"),
     ("runs_twentyfifth_worldcup.csv", None),
     ("runs_thirtysecond.csv", "runs_eighteenth.csv"),
+    ("runs_thirtysecond.csv", "runs_twentieth.csv"),
 ]
 QUOTED_PAIRS = [
     *[(archive, against, f"loss={a}", f"loss={b}") for archive, against, a, b in LOSS_PAIRS],

@@ -125,6 +125,7 @@ TRAINING_PAIRS = [
     ("runs_twentyfifth_worldcup.csv", None),
     ("runs_thirtysecond.csv", "runs_eighteenth.csv"),
     ("runs_thirtysecond.csv", "runs_twentieth.csv"),
+    ("runs_thirtysecond.csv", "runs_sixteenth.csv"),
 ]
 QUOTED_PAIRS = [
     *[(archive, against, f"loss={a}", f"loss={b}") for archive, against, a, b in LOSS_PAIRS],

@@ -31,7 +31,7 @@ from synthcal.eval.archive import ArchiveError, is_archive, read_archive, runs_a
 from synthcal.eval.harness import collect_results, table_runs
 from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
-from synthcal.eval.statistics import background_floor, format_paired, paired_frame
+from synthcal.eval.statistics import background_floor, format_paired, paired_frame, paired_runs
 from synthcal.eval.tables import LAYOUTS, MISSING, PAIR_KEYS, format_table, legend, text_table, wrap_caption
 from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
@@ -496,9 +496,7 @@ def budget_differences(frame: pd.DataFrame, key: str, a: str, b: str) -> tuple[l
     """
     if "budget" not in frame:
         return [], []
-    others = [k for k in PAIR_KEYS if k != key]
-    sides = [frame.loc[frame[key] == side, [*others, "seed", "budget"]] for side in (a, b)]
-    pairs = sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
+    pairs = paired_runs(frame, key, a, b, ["budget"])
     clauses = [[set(str(text).split("; ")) if pd.notna(text) else set() for text in pairs[f"budget_{side}"]]
                for side in ("a", "b")]
     only_a = set().union(*(x - y for x, y in zip(*clauses, strict=True)))

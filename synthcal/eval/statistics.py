@@ -70,7 +70,7 @@ from synthcal.eval.tables import (
 )
 
 __all__ = ["CONFIDENCE", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "t_interval", "bootstrap_interval",
-           "background_floor", "VERDICTS", "UNDECIDED", "verdict", "paired_frame", "format_paired"]
+           "background_floor", "VERDICTS", "UNDECIDED", "verdict", "paired_runs", "paired_frame", "format_paired"]
 
 CONFIDENCE = 0.95
 BOOTSTRAP_RESAMPLES = 2000
@@ -218,6 +218,14 @@ def verdict(low: float, high: float, paper_difference: float) -> str:
     return VERDICTS[1]
 
 
+def paired_runs(frame: pd.DataFrame, key: str, a: str, b: str, columns: Sequence[str]) -> pd.DataFrame:
+    """The runs of ``key`` = ``a`` beside those of ``key`` = ``b`` on the same seed and every other pair key
+    (:data:`PAIR_KEYS`): one row per pair, ``columns`` suffixed ``_a`` / ``_b``."""
+    others = [k for k in PAIR_KEYS if k != key]
+    sides = [frame.loc[frame[key] == side, [*others, "seed", *columns]] for side in (a, b)]
+    return sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
+
+
 def paired_frame(
     results: pd.DataFrame,
     a: str,
@@ -263,9 +271,7 @@ def paired_frame(
         raise ValueError(f"cannot pair over {key!r}; one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
     frame = validate_results(results, value, PAIR_KEYS)
     others = [k for k in PAIR_KEYS if k != key]
-    carried = [*others, "seed", value] + (["run_id"] if "run_id" in frame else [])
-    sides = [frame.loc[frame[key] == side, carried] for side in (a, b)]
-    pairs = sides[0].merge(sides[1], on=[*others, "seed"], suffixes=("_a", "_b"))
+    pairs = paired_runs(frame, key, a, b, [value] + (["run_id"] if "run_id" in frame else []))
     if pairs.empty:
         raise ValueError(f"no paired runs: no dataset, seed and settings with both {key} {a!r} and {key} {b!r}")
     pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * _points(value)

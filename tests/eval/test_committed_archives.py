@@ -10,6 +10,8 @@ archives with ``--against``).
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -192,3 +194,13 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     assert f"In none of the proposed model's {len(proposed)} paired cells" in prose
     assert f"its mean is below in {sum(mean < 0 for mean in means)}," in prose
     assert f"excludes 0 in {sum(high < 0 for high in highs)} under `iou`" in prose
+
+
+def test_the_budget_table_is_the_archives_seconds():
+    """reproduction.md's table of seconds per archived run is what docs/sweeps/run_seconds.py prints from the
+    archives today: an archive added or changed without rerunning the script fails here."""
+    script = ROOT / "docs" / "sweeps" / "run_seconds.py"
+    printed = subprocess.run([sys.executable, str(script)], cwd=ROOT, capture_output=True, text=True, check=True).stdout
+    table = [line for line in printed.splitlines() if line.startswith("|")]
+    assert len(table) > 2, "run_seconds.py printed no rows"
+    assert "\n".join(table) in REPORT.read_text(encoding="utf-8")

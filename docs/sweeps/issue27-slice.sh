@@ -330,4 +330,5 @@ for loss in dice top-dice; do
   done
 done
 # ---- 15y: mixed-4 with Dice and Top-Dice done in the thirty-second session (10 runs in 40 and 37 min; archive
-#      docs/results/runs_thirtysecond.csv), mixed-5 with Dice after them (10 runs in 38 min, the same archive) ----
+#      docs/results/runs_thirtysecond.csv), mixed-5 with Dice after them (10 runs in 38 min, the same archive), and
+#      mixed-5 with Top-Dice across the thirty-second and thirty-third (the last six runs in 24 min, the same archive) ----

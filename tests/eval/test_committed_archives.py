@@ -128,6 +128,7 @@ TRAINING_PAIRS = [
     ("runs_thirtysecond.csv", "runs_eighteenth.csv"),
     ("runs_thirtysecond.csv", "runs_twentieth.csv"),
     ("runs_thirtysecond.csv", "runs_sixteenth.csv"),
+    ("runs_thirtysecond.csv", "runs_seventeenth.csv"),
 ]
 QUOTED_PAIRS = [
     *[(archive, against, f"loss={a}", f"loss={b}") for archive, against, a, b in LOSS_PAIRS],

@@ -332,3 +332,15 @@ done
 # ---- 15y: mixed-4 with Dice and Top-Dice done in the thirty-second session (10 runs in 40 and 37 min; archive
 #      docs/results/runs_thirtysecond.csv), mixed-5 with Dice after them (10 runs in 38 min, the same archive), and
 #      mixed-5 with Top-Dice across the thirty-second and thirty-third (the last six runs in 24 min, the same archive) ----
+# ---- 2026-11-29 (thirty-third session; the same clone, stores and results/) ----
+# 15z. the rest of mixed-5 end to end (Top-MSE: 10 runs in 38 min, archive docs/results/runs_thirtythird.csv; MSE after
+#      it), each pairing with runs_fifteenth.csv's step-by-step runs and retrieved template; then the strongest public
+#      baseline on the real data and on intersection-3, step by step with Top-MSE, sha2020 and proposed rerun beside it
+#      so that the three pair by seed in one folder (World Cup 2014's pair too with runs_twentyfifth_worldcup.csv, the
+#      same clone; intersection-3's with runs_twentyninth.csv's end-to-end Top-MSE runs)
+for loss in top-mse mse; do
+  step $S bench --datasets mixed-5 --estimator sha2020 proposed --training end-to-end --loss $loss $SEL $COMMON --workers 2
+done
+for dataset in worldcup2014 intersection-3; do
+  step $S bench --datasets $dataset --estimator sha2020-ccbv sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
+done

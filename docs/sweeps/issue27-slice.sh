@@ -333,14 +333,18 @@ done
 #      docs/results/runs_thirtysecond.csv), mixed-5 with Dice after them (10 runs in 38 min, the same archive), and
 #      mixed-5 with Top-Dice across the thirty-second and thirty-third (the last six runs in 24 min, the same archive) ----
 # ---- 2026-11-29 (thirty-third session; the same clone, stores and results/) ----
-# 15z. the rest of mixed-5 end to end (Top-MSE: 10 runs in 38 min, archive docs/results/runs_thirtythird.csv; MSE after
-#      it), each pairing with runs_fifteenth.csv's step-by-step runs and retrieved template; then the strongest public
+# 15z. the rest of mixed-5 end to end (Top-MSE and MSE: 10 runs in 38 and 35 min, archive
+#      docs/results/runs_thirtythird.csv), each pairing with runs_fifteenth.csv's step-by-step runs and retrieved
+#      template; then mixed-4 end to end with Top-MSE (pairs with runs_fourteenth.csv) and the strongest public
 #      baseline on the real data and on intersection-3, step by step with Top-MSE, sha2020 and proposed rerun beside it
 #      so that the three pair by seed in one folder (World Cup 2014's pair too with runs_twentyfifth_worldcup.csv, the
 #      same clone; intersection-3's with runs_twentyninth.csv's end-to-end Top-MSE runs)
 for loss in top-mse mse; do
   step $S bench --datasets mixed-5 --estimator sha2020 proposed --training end-to-end --loss $loss $SEL $COMMON --workers 2
 done
+step $S bench --datasets mixed-4 --estimator sha2020 proposed --training end-to-end --loss top-mse $SEL $COMMON --workers 2
 for dataset in worldcup2014 intersection-3; do
   step $S bench --datasets $dataset --estimator sha2020-ccbv sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
 done
+# ---- 15z: mixed-5 Top-MSE and MSE and World Cup 2014 with sha2020-ccbv (15 runs in 10 min) done in the thirty-third
+#      session (archive docs/results/runs_thirtythird.csv); mixed-4 Top-MSE and intersection-3 were running at its stop ----

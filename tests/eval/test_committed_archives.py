@@ -103,6 +103,7 @@ LOSS_PAIRS = [
     ("runs_twentyninth.csv", None, "top-dice", "dice"),
     ("runs_twentyninth.csv", None, "top-mse", "mse"),
     ("runs_thirtysecond.csv", None, "top-dice", "dice"),
+    ("runs_thirtythird.csv", None, "top-mse", "mse"),
 ]
 
 

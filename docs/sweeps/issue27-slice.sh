@@ -347,4 +347,5 @@ for dataset in worldcup2014 intersection-3; do
   step $S bench --datasets $dataset --estimator sha2020-ccbv sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
 done
 # ---- 15z: mixed-5 Top-MSE and MSE and World Cup 2014 with sha2020-ccbv (15 runs in 10 min) done in the thirty-third
-#      session (archive docs/results/runs_thirtythird.csv); mixed-4 Top-MSE and intersection-3 were running at its stop ----
+#      session (archive docs/results/runs_thirtythird.csv), and mixed-4 Top-MSE (10 runs in 38 min, the same archive);
+#      intersection-3 with sha2020-ccbv was running at its stop ----

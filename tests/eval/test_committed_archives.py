@@ -131,6 +131,7 @@ TRAINING_PAIRS = [
     ("runs_thirtysecond.csv", "runs_sixteenth.csv"),
     ("runs_thirtysecond.csv", "runs_seventeenth.csv"),
     ("runs_thirtythird.csv", "runs_fifteenth.csv"),
+    ("runs_thirtythird.csv", "runs_fourteenth.csv"),
 ]
 QUOTED_PAIRS = [
     *[(archive, against, f"loss={a}", f"loss={b}") for archive, against, a, b in LOSS_PAIRS],

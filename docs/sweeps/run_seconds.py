@@ -5,14 +5,16 @@ time, the three-rate selection included) and prints one Markdown row per device,
 dataset: how many runs, the median and the range of their seconds. The CPU runs ran two side by side with one torch
 thread each on the 2-core machine; the GPU runs all side by side on one H200.
 
-Run from the repository root: ``python docs/sweeps/run_seconds.py``.
+Run it from anywhere: ``python docs/sweeps/run_seconds.py`` (it finds ``docs/results`` beside itself).
 """
 
 from pathlib import Path
 
 import pandas as pd
 
-RESULTS = Path("docs/results")
+from synthcal.eval.archive import read_archive
+
+RESULTS = Path(__file__).resolve().parents[1] / "results"
 
 
 def dataset_kind(dataset: str) -> str:
@@ -24,7 +26,7 @@ def dataset_kind(dataset: str) -> str:
     return "mixes"
 
 
-runs = pd.concat([pd.read_csv(path) for path in sorted(RESULTS.glob("runs_*.csv"))], ignore_index=True)
+runs = pd.concat([read_archive(path) for path in sorted(RESULTS.glob("runs_*.csv"))], ignore_index=True)
 runs = runs[runs["seconds"].notna() & (runs["status"] == "ok")].assign(kind=runs["dataset"].map(dataset_kind))
 keys = ["device", "segmentation", "training", "model", "kind"]
 print("| device | maps | training | model | datasets | runs | median s | range s |")

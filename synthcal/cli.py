@@ -692,18 +692,20 @@ def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int, fixe
 
 def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
     """One line: the runs to do × their estimated minutes, from the recorded times of finished runs
-    (:func:`synthcal.eval.harness.expected_seconds`: those alike in estimator, training, segmentation,
+    (:func:`synthcal.eval.harness.estimate_seconds`: those alike in estimator, training, segmentation,
     device, train images and dataset, else in all but the dataset, else in all but the dataset and the
-    train images, else the estimator's); whether to go on."""
+    train images scaled to the run's, else the estimator's), naming the estimators timed by runs on other
+    train sizes; whether to go on."""
     from statistics import mean
 
-    from synthcal.eval.harness import expected_seconds, recorded_seconds, split_sizes, trained_images
+    from synthcal.eval.harness import estimate_seconds, recorded_seconds, split_sizes, trained_images
 
     if not todo:
         return True
     seconds = recorded_seconds(args.results) if args.results.is_dir() else {}
     by_estimator: dict[str, list[float]] = {}
     unknown: dict[str, None] = {}  # an estimator with no finished run at all (ordered, once each)
+    scaled: dict[str, None] = {}  # an estimator timed by its runs on other train sizes
     train_sizes: dict[tuple[str, int, str], int] = {}  # the train samples used, per store, seed and limits
     for run in todo:
         train = None
@@ -712,11 +714,13 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
             if where not in train_sizes:
                 train_sizes[where] = split_sizes(run)["train"][0]
             train = train_sizes[where]
-        expected = expected_seconds(run, seconds, trained_images(run.settings, train))
+        expected, basis = estimate_seconds(run, seconds, trained_images(run.settings, train))
         if expected is None:
             unknown[run.estimator] = None
         else:
             by_estimator.setdefault(run.estimator, []).append(expected)
+        if basis == "other train sizes":
+            scaled[run.estimator] = None
     workers = 1 if args.scheduler else args.workers
     if unknown:
         print(f"estimated time: unknown (no finished run of {', '.join(unknown)} in {args.results} to time by)")
@@ -725,7 +729,8 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
     total = sum(sum(values) for values in by_estimator.values()) / workers
     print(f"estimated time: {' + '.join(parts)}"
           f"{f' over {workers} workers' if workers > 1 else ''} ≈ {_duration(total)} "
-          f"(from the recorded times of finished runs)", flush=True)
+          f"(from the recorded times of finished runs{'; ' + ', '.join(scaled) if scaled else ''}"
+          f"{' scaled from runs on other train sizes' if scaled else ''})", flush=True)
     return total <= CONFIRM_SECONDS or _confirm(args, f"run {len(todo)} runs for about {_duration(total)}?")
 
 

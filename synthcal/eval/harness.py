@@ -152,6 +152,8 @@ __all__ = [
     "is_finished",
     "recorded_seconds",
     "expected_seconds",
+    "estimate_seconds",
+    "scaled_seconds",
     "timing_key",
     "trained_images",
     "TIMING_KEYS",
@@ -418,7 +420,7 @@ def _run_here(todo: Sequence[Run], results: Path, timeout: float | None, workers
 # how many images it trains on (World Cup 2014 trains on 167 frames, `mixed-1` on 1,500: 4 against 9 min a sha2020
 # run end to end; a sweep of intersection-3 timed by both kinds of runs was told 33 min and took 49, twenty-seventh
 # session), and last the dataset. A run whose dataset has no finished run alike is timed by its settings' runs
-# elsewhere on as many train images, else on any number.
+# elsewhere on as many train images, else by those on other numbers scaled to its own (estimate_seconds).
 TIMING_KEYS = ("estimator", "training", "segmentation", "device", "train_images", "dataset")
 
 
@@ -443,23 +445,81 @@ def recorded_seconds(results: str | Path) -> dict[tuple[str, ...], list[float]]:
 
 def expected_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]],
                      train_images: int | None = None) -> float | None:
-    """A run's expected seconds from :func:`recorded_seconds`: the mean of the finished runs with its
-    :func:`timing_key`, else of those alike in all but the dataset (so on as many train images), else of
-    those alike in all but the dataset and the train images, else of every finished run of its estimator;
-    None when its estimator has none.
+    """A run's expected seconds from :func:`recorded_seconds` (:func:`estimate_seconds` without its basis);
+    None when its estimator has no finished run."""
+    return estimate_seconds(run, seconds, train_images)[0]
+
+
+def estimate_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]],
+                     train_images: int | None = None) -> tuple[float | None, str]:
+    """A run's expected seconds from :func:`recorded_seconds`, and what they are based on.
+
+    The bases, most alike first: ``"alike"`` (the mean of the finished runs with its :func:`timing_key`),
+    ``"other datasets"`` (of those alike in all but the dataset, so on as many train images), ``"other
+    train sizes"`` (those alike in all but the dataset and the train images, scaled to ``train_images``:
+    see below), ``"estimator"`` (the mean of every finished run of its estimator) and ``"none"`` (no
+    finished run of its estimator: the seconds are None).
+
+    Scaling, because a run's time grows with its train images and a plain mean of runs on another number
+    misleads: ``sha2020-ccbv`` took 160 s a run on World Cup 2014's 167 frames and 1,278 s on 1,500 of
+    intersection-3 (thirty-fourth session), ``sha2020`` end to end 4 and 9 min. Runs on two or more train
+    sizes give a line through their per-size means (time = fixed + per image × images, the fixed part
+    being test, dictionary and start-up), never below zero; runs on one size are scaled in proportion,
+    which overestimates when the run trains on more images (its fixed part scaled too) and underestimates
+    when on fewer. A run that does not train (``train_images`` None) takes the plain mean.
 
     Args:
         run: the run to time.
         seconds: :func:`recorded_seconds` of the results folder.
         train_images: what the run trains on (:func:`trained_images`; None: it does not train).
+
+    Returns:
+        (seconds, basis).
     """
     key = timing_key(run, train_images)
 
-    def alike(length: int) -> list[float]:
-        return [value for other, values in seconds.items() if other[:length] == key[:length] for value in values]
+    def alike(length: int) -> dict[str, list[float]]:
+        found: dict[str, list[float]] = {}
+        for other, values in seconds.items():
+            if other[:length] == key[:length]:
+                found.setdefault(other[TIMING_KEYS.index("train_images")], []).extend(values)
+        return found
 
-    found = alike(len(key)) or alike(len(key) - 1) or alike(len(key) - 2) or alike(1)
-    return sum(found) / len(found) if found else None
+    def mean(by_size: dict[str, list[float]]) -> float:
+        values = [value for sized in by_size.values() for value in sized]
+        return sum(values) / len(values)
+
+    for length, basis in ((len(key), "alike"), (len(key) - 1, "other datasets")):
+        if found := alike(length):
+            return mean(found), basis
+    if found := alike(len(key) - 2):
+        sizes = {int(size): sum(values) / len(values) for size, values in found.items() if size.isdigit()}
+        if train_images is None or not sizes:
+            return mean(found), "other train sizes"
+        return scaled_seconds(sizes, train_images), "other train sizes"
+    if found := alike(1):
+        return mean(found), "estimator"
+    return None, "none"
+
+
+def scaled_seconds(seconds_by_size: dict[int, float], train_images: int) -> float:
+    """Seconds on ``train_images`` from mean seconds on other train sizes: the least-squares line through
+    them when there are two sizes or more (never below zero), else in proportion to the one size.
+
+    >>> round(scaled_seconds({167: 160.0}, 1500))
+    1437
+    >>> round(scaled_seconds({167: 240.0, 1500: 540.0}, 500))
+    315
+    """
+    if len(seconds_by_size) == 1:
+        ((size, value),) = seconds_by_size.items()
+        return value * train_images / size if size else value
+    sizes = list(seconds_by_size)
+    mean_size = sum(sizes) / len(sizes)
+    mean_value = sum(seconds_by_size.values()) / len(sizes)
+    slope = (sum((size - mean_size) * (value - mean_value) for size, value in seconds_by_size.items())
+             / sum((size - mean_size) ** 2 for size in sizes))
+    return max(0.0, mean_value + slope * (train_images - mean_size))
 
 
 def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> pd.DataFrame:

@@ -22,6 +22,7 @@ from synthcal.cli import main
 from synthcal.eval.harness import (
     DamagedRecordWarning,
     collect_results,
+    estimate_seconds,
     execute_run,
     expand_runs,
     expected_seconds,
@@ -836,5 +837,29 @@ def test_a_sweep_without_runs_of_its_dataset_is_timed_by_runs_on_as_many_train_i
               model="proposed", seed=2, training="step-by-step", segmentation="ground-truth")
     assert expected_seconds(run, seconds, train_images=1500) == 570.0
     assert expected_seconds(run, seconds, train_images=167) == 240.0
-    # on a number of images no run trained on: every run alike in estimator, training, segmentation and device
-    assert expected_seconds(run, seconds, train_images=500) == 460.0
+    # on a number of images no run trained on: the line through the per-size means of every run alike in
+    # estimator, training, segmentation and device (not their plain mean, 460 s)
+    slope, intercept = np.polyfit([167, 1500], [240.0, 570.0], 1)
+    assert estimate_seconds(run, seconds, train_images=500) == (pytest.approx(intercept + slope * 500),
+                                                                "other train sizes")
+    assert expected_seconds(run, seconds, train_images=10) == pytest.approx(max(0.0, intercept + slope * 10))
+    # runs on one size only: in proportion (World Cup's 167 frames against intersection-3's 1,500)
+    only_worldcup = {key: values for key, values in seconds.items() if key[-1] == "worldcup2014"}
+    assert expected_seconds(run, only_worldcup, train_images=1500) == pytest.approx(240.0 * 1500 / 167)
+    # a run that does not train: the plain mean
+    assert expected_seconds(run, seconds) == pytest.approx(460.0)
+
+
+def test_a_sweep_timed_by_runs_on_other_train_sizes_scales_them_and_says_so(data, tmp_path, monkeypatch, capsys):
+    """Intersection-3's sha2020-ccbv runs were told 3 min each from World Cup 2014's (167 frames) and took 21
+    (thirty-fourth session): runs on another number of train images are scaled, and the preview names them."""
+    from synthcal import cli
+
+    write_run(tmp_path, "sha2020", "top-mse", 0, 0.5, 1e-4, seconds=6000.0, dataset="worldcup2014", device="cpu",
+              train=3000)
+    monkeypatch.setattr(cli, "CONFIRM_SECONDS", 0.0)  # every sweep asks; the answer is no: nothing trains
+    monkeypatch.setattr(cli, "_confirm", lambda *args: False)
+    assert bench(data, tmp_path, "sha2020", seeds="0", extra=("--loss", "top-mse")) == 1
+    line = next(text for text in capsys.readouterr().out.splitlines() if text.startswith("estimated time: "))
+    assert line.endswith("(from the recorded times of finished runs; sha2020 scaled from runs on other train sizes)")
+    assert "100 min" not in line  # the run on 1,500 images took 100 min; this one trains on the smoke store's few

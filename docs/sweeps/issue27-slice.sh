@@ -348,4 +348,8 @@ for dataset in worldcup2014 intersection-3; do
 done
 # ---- 15z: mixed-5 Top-MSE and MSE and World Cup 2014 with sha2020-ccbv (15 runs in 10 min) done in the thirty-third
 #      session (archive docs/results/runs_thirtythird.csv), and mixed-4 Top-MSE (10 runs in 38 min, the same archive);
-#      intersection-3 with sha2020-ccbv was running at its stop ----
+#      intersection-3 with sha2020-ccbv, running at its stop, finished in the thirty-fourth (14 runs in 72 min, seed 0
+#      of sha2020-ccbv 21 min before; archive docs/results/runs_thirtyfourth.csv) ----
+# ---- 2026-11-29 (thirty-fourth session; the same clone, stores and results/) ----
+# 16. the last end-to-end cell of the paper's mixes: mixed-4 with MSE (pairs with runs_fourteenth.csv's step-by-step runs)
+step $S bench --datasets mixed-4 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2

@@ -348,8 +348,12 @@ for dataset in worldcup2014 intersection-3; do
 done
 # ---- 15z: mixed-5 Top-MSE and MSE and World Cup 2014 with sha2020-ccbv (15 runs in 10 min) done in the thirty-third
 #      session (archive docs/results/runs_thirtythird.csv), and mixed-4 Top-MSE (10 runs in 38 min, the same archive);
-#      intersection-3 with sha2020-ccbv, running at its stop, finished in the thirty-fourth (14 runs in 72 min, seed 0
+#      intersection-3 with sha2020-ccbv, running at its stop, finished in the thirty-fourth (14 runs in 69 min, seed 0
 #      of sha2020-ccbv 21 min before; archive docs/results/runs_thirtyfourth.csv) ----
 # ---- 2026-11-29 (thirty-fourth session; the same clone, stores and results/) ----
 # 16. the last end-to-end cell of the paper's mixes: mixed-4 with MSE (pairs with runs_fourteenth.csv's step-by-step runs)
+#     and the strongest public baseline on intersection-4, as on intersection-3 (the three models side by side)
 step $S bench --datasets mixed-4 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-4 --estimator sha2020-ccbv sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
+# ---- 16: mixed-4 with MSE done in the thirty-fourth session (10 runs in 37 min; archive
+#      docs/results/runs_thirtyfourth.csv); intersection-4 with sha2020-ccbv was running at its stop ----

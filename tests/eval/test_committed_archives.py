@@ -106,6 +106,7 @@ LOSS_PAIRS = [
     ("runs_twentyninth.csv", None, "top-mse", "mse"),
     ("runs_thirtysecond.csv", None, "top-dice", "dice"),
     ("runs_thirtythird.csv", None, "top-mse", "mse"),
+    ("runs_thirtythird.csv", "runs_thirtyfourth.csv", "top-mse", "mse"),
 ]
 
 
@@ -135,6 +136,7 @@ TRAINING_PAIRS = [
     ("runs_thirtythird.csv", "runs_fifteenth.csv"),
     ("runs_thirtythird.csv", "runs_fourteenth.csv"),
     ("runs_twentyninth.csv", "runs_thirtyfourth.csv"),
+    ("runs_thirtyfourth.csv", "runs_fourteenth.csv"),
 ]
 QUOTED_PAIRS = [
     *[(archive, against, f"loss={a}", f"loss={b}") for archive, against, a, b in LOSS_PAIRS],

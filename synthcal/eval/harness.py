@@ -457,8 +457,9 @@ def estimate_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]],
     The bases, most alike first: ``"alike"`` (the mean of the finished runs with its :func:`timing_key`),
     ``"other datasets"`` (of those alike in all but the dataset, so on as many train images), ``"other
     train sizes"`` (those alike in all but the dataset and the train images, scaled to ``train_images``:
-    see below), ``"estimator"`` (the mean of every finished run of its estimator) and ``"none"`` (no
-    finished run of its estimator: the seconds are None).
+    see below), ``"estimator"`` (the mean of every finished run of its estimator, or of those alike in all
+    but the dataset and the train images when there is nothing to scale by) and ``"none"`` (no finished run
+    of its estimator: the seconds are None).
 
     Scaling, because a run's time grows with its train images and a plain mean of runs on another number
     misleads: ``sha2020-ccbv`` took 160 s a run on World Cup 2014's 167 frames and 1,278 s on 1,500 of
@@ -494,8 +495,8 @@ def estimate_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]],
             return mean(found), basis
     if found := alike(len(key) - 2):
         sizes = {int(size): sum(values) / len(values) for size, values in found.items() if size.isdigit()}
-        if train_images is None or not sizes:
-            return mean(found), "other train sizes"
+        if train_images is None or not sizes:  # nothing to scale by: the plain mean, as for the estimator's runs
+            return mean(found), "estimator"
         return scaled_seconds(sizes, train_images), "other train sizes"
     if found := alike(1):
         return mean(found), "estimator"

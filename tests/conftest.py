@@ -10,9 +10,11 @@ writes into a store (splits, resume, damage) cannot change what another sees.
 
 from __future__ import annotations
 
+import io
 import os
 import shutil
 import signal
+import sys
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -95,3 +97,20 @@ def smoke_config() -> LoadedConfig:
 def smoke_stores(smoke_config: LoadedConfig, tmp_path_factory: pytest.TempPathFactory) -> SmokeStores:
     """The session's pristine smoke stores; take copies with ``smoke_stores.copy(names, folder)``."""
     return SmokeStores(smoke_config, tmp_path_factory.mktemp("smoke-stores"))
+
+
+class FakeTerminal(io.StringIO):
+    """Standard input typed at a terminal."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.fixture
+def terminal(monkeypatch, capsys):
+    """Standard input and error on a terminal; returns a function that types the answer (the CLI's questions
+    are asked only there)."""
+    def answer(text: str) -> None:
+        monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # the test's own (captured) standard error
+        monkeypatch.setattr(sys, "stdin", FakeTerminal(text + "\n"))
+    return answer

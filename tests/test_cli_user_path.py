@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import os
 import subprocess
 import sys
@@ -17,22 +16,6 @@ from synthcal.generate.splits import draw_splits
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "datasets.yaml"
-
-
-class FakeTerminal(io.StringIO):
-    """Standard input typed at a terminal."""
-
-    def isatty(self) -> bool:
-        return True
-
-
-@pytest.fixture
-def terminal(monkeypatch, capsys):
-    """Standard input and error on a terminal; returns a function that types the answer."""
-    def answer(text: str) -> None:
-        monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # the test's own (captured) standard error
-        monkeypatch.setattr(sys, "stdin", FakeTerminal(text + "\n"))
-    return answer
 
 
 def never_asked(*args):

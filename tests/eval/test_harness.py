@@ -850,7 +850,8 @@ def test_a_sweep_without_runs_of_its_dataset_is_timed_by_runs_on_as_many_train_i
     assert estimate_seconds(run, seconds) == (pytest.approx(460.0), "estimator")
 
 
-def test_a_sweep_timed_by_runs_on_other_train_sizes_scales_them_and_says_so(data, tmp_path, monkeypatch, capsys):
+def test_a_sweep_timed_by_runs_on_other_train_sizes_scales_them_and_says_so(data, tmp_path, monkeypatch, terminal,
+                                                                           capsys):
     """Intersection-3's sha2020-ccbv runs were told 3 min each from World Cup 2014's (167 frames) and took 21
     (thirty-fourth session): runs on another number of train images are scaled, and the preview names them."""
     from synthcal import cli
@@ -858,7 +859,7 @@ def test_a_sweep_timed_by_runs_on_other_train_sizes_scales_them_and_says_so(data
     write_run(tmp_path, "sha2020", "top-mse", 0, 0.5, 1e-4, seconds=6000.0, dataset="worldcup2014", device="cpu",
               train=3000)
     monkeypatch.setattr(cli, "CONFIRM_SECONDS", 0.0)  # every sweep asks; the answer is no: nothing trains
-    monkeypatch.setattr(cli, "_confirm", lambda *args: False)
+    terminal("n")
     assert bench(data, tmp_path, "sha2020", seeds="0", extra=("--loss", "top-mse")) == 1
     line = next(text for text in capsys.readouterr().out.splitlines() if text.startswith("estimated time: "))
     assert line.endswith("(from the recorded times of finished runs; sha2020 scaled from runs on other train sizes)")

@@ -727,10 +727,10 @@ def _preview_bench(todo: Sequence[Run], args: argparse.Namespace) -> bool:
         return True
     parts = [f"{len(values)} × {_duration(mean(values))} ({name})" for name, values in by_estimator.items()]
     total = sum(sum(values) for values in by_estimator.values()) / workers
+    scaling = f"; {', '.join(scaled)} scaled from runs on other train sizes" if scaled else ""
     print(f"estimated time: {' + '.join(parts)}"
           f"{f' over {workers} workers' if workers > 1 else ''} ≈ {_duration(total)} "
-          f"(from the recorded times of finished runs{'; ' + ', '.join(scaled) if scaled else ''}"
-          f"{' scaled from runs on other train sizes' if scaled else ''})", flush=True)
+          f"(from the recorded times of finished runs{scaling})", flush=True)
     return total <= CONFIRM_SECONDS or _confirm(args, f"run {len(todo)} runs for about {_duration(total)}?")
 
 

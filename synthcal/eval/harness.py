@@ -93,6 +93,7 @@ from collections.abc import Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict
 from pathlib import Path
+from statistics import fmean
 from typing import Any
 
 import numpy as np
@@ -486,15 +487,14 @@ def estimate_seconds(run: Run, seconds: dict[tuple[str, ...], list[float]],
                 found.setdefault(other[TIMING_KEYS.index("train_images")], []).extend(values)
         return found
 
-    def mean(by_size: dict[str, list[float]]) -> float:
-        values = [value for sized in by_size.values() for value in sized]
-        return sum(values) / len(values)
+    def mean(by_size: dict[str, list[float]]) -> float:  # over every run, whatever its size
+        return fmean(value for sized in by_size.values() for value in sized)
 
     for length, basis in ((len(key), "alike"), (len(key) - 1, "other datasets")):
         if found := alike(length):
             return mean(found), basis
     if found := alike(len(key) - 2):
-        sizes = {int(size): sum(values) / len(values) for size, values in found.items() if size.isdigit()}
+        sizes = {int(size): fmean(values) for size, values in found.items() if size.isdigit()}
         if train_images is None or not sizes:  # nothing to scale by: the plain mean, as for the estimator's runs
             return mean(found), "estimator"
         return scaled_seconds(sizes, train_images), "other train sizes"

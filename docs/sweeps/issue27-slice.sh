@@ -356,4 +356,8 @@ done
 step $S bench --datasets mixed-4 --estimator sha2020 proposed --training end-to-end --loss mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-4 --estimator sha2020-ccbv sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
 # ---- 16: mixed-4 with MSE done in the thirty-fourth session (10 runs in 37 min; archive
-#      docs/results/runs_thirtyfourth.csv); intersection-4 with sha2020-ccbv was running at its stop ----
+#      docs/results/runs_thirtyfourth.csv); intersection-4 with sha2020-ccbv, running at its stop, finished in the
+#      thirty-fifth (12 runs in 52 min; archive docs/results/runs_thirtyfifth.csv) ----
+# ---- 2026-11-29 (thirty-fifth session; the same clone, stores and results/) ----
+# 17. the strongest public baseline on intersection-5, the last of the paper's intersections
+step $S bench --datasets intersection-5 --estimator sha2020-ccbv sha2020 proposed --loss top-mse $SEL $COMMON --workers 2

@@ -361,6 +361,7 @@ step $S bench --datasets intersection-4 --estimator sha2020-ccbv sha2020 propose
 # ---- 2026-11-29 (thirty-fifth session; the same clone, stores and results/) ----
 # 17. the strongest public baseline on intersection-5, the last of the paper's intersections
 step $S bench --datasets intersection-5 --estimator sha2020-ccbv sha2020 proposed --loss top-mse $SEL $COMMON --workers 2
+# ---- 17: done in the thirty-fifth session (15 runs in 71 min; archive docs/results/runs_thirtyfifth.csv) ----
 # 18. the paper's matching table end to end, intersections 3–5 with Dice: the proposed model with MSE matching (pairs
 #     with 15x's end-to-end Dice runs, Top-MSE matching, archive docs/results/runs_twentyninth.csv: --against ...
 #     --paired matching_score=top-mse matching_score=mse), queued behind 17 in the thirty-fifth session

@@ -68,13 +68,14 @@ def test_every_judged_cell_of_an_archive_is_quoted_with_its_verdict(archive: Pat
     ("runs_eighteenth.csv", "intersection-1", "step-by-step", "top-dice"),
     ("runs_thirtyfourth.csv", "intersection-3", "step-by-step", "top-mse"),
     ("runs_thirtyfifth.csv", "intersection-4", "step-by-step", "top-mse"),
+    ("runs_thirtyfifth.csv", "intersection-5", "step-by-step", "top-mse"),
 ])
 def test_the_rerun_cell_reproduces_the_lost_folders_figures(metric: str, archive: str, dataset: str, training: str,
                                                              loss: str):
     """The tenth, thirteenth, seventeenth, eighteenth, thirty-fourth and thirty-fifth sessions reran `sha2020` (true
     maps) on another machine and code hash; reproduction.md ("The same cell again", "The cell again, with
     sha2020-ccbv", "The cell again" under intersection-1's end-to-end training and under its Top-Dice loss,
-    "Intersection-3 again, with sha2020-ccbv", "Intersection-4 again") says every figure equals the lost folder's
+    "Intersection-3 again, with sha2020-ccbv", "Intersection-4 again", "Intersection-5 again") says every figure equals the lost folder's
     report to the last printed digit (to 12 significant digits here)."""
     keys = {"dataset": dataset, "training": training, "loss": loss, "model": "sha2020",
             "segmentation": "ground-truth", "dictionary": "split"}
@@ -191,8 +192,9 @@ def _number(text: str) -> float:
 
 
 def test_the_end_to_end_counts_count_the_end_to_end_table():
-    """reproduction.md's "End to end against step by step" counts of the proposed model's cells against the rows of
-    its table (`iou`: the cell, archives, paper, interval, verdict, ...)."""
+    """reproduction.md's "End to end against step by step" counts of the proposed model's cells — above by an
+    interval that excludes 0, below on the mean, below by such an interval — against the rows of its table (`iou`:
+    the cell, archives, paper, interval, verdict, ...)."""
     text = REPORT.read_text(encoding="utf-8")
     section = text.split("## End to end against step by step", 1)[1].split("\n## ", 1)[0]
     rows = [line.strip("| ").split(" | ") for line in section.splitlines()
@@ -200,9 +202,10 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     proposed = [row for row in rows if row[0].endswith(", proposed")]
     means = [_number(row[3].split(" [")[0]) for row in proposed]
     lows, highs = zip(*(map(_number, row[3].split(" [")[1].rstrip("]").split(", ")) for row in proposed), strict=True)
-    assert not any(low > 0 for low in lows), "a proposed row is above by an interval that excludes 0"
+    above = sum(low > 0 for low in lows)
     prose = " ".join(section.split())
-    assert f"In none of the proposed model's {len(proposed)} paired cells" in prose
+    opening = {0: "In none", 1: "Only in one", 2: "Only in two"}[above]
+    assert f"{opening} of the proposed model's {len(proposed)} paired cells" in prose
     assert f"its mean is below in {sum(mean < 0 for mean in means)}," in prose
     assert f"excludes 0 in {sum(high < 0 for high in highs)} under `iou`" in prose
 

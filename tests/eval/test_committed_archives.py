@@ -75,8 +75,8 @@ def test_the_rerun_cell_reproduces_the_lost_folders_figures(metric: str, archive
     """The tenth, thirteenth, seventeenth, eighteenth, thirty-fourth and thirty-fifth sessions reran `sha2020` (true
     maps) on another machine and code hash; reproduction.md ("The same cell again", "The cell again, with
     sha2020-ccbv", "The cell again" under intersection-1's end-to-end training and under its Top-Dice loss,
-    "Intersection-3 again, with sha2020-ccbv", "Intersection-4 again", "Intersection-5 again") says every figure equals the lost folder's
-    report to the last printed digit (to 12 significant digits here)."""
+    "Intersection-3 again, with sha2020-ccbv", "Intersection-4 again", "Intersection-5 again") says every figure
+    equals the lost folder's report to the last printed digit (to 12 significant digits here)."""
     keys = {"dataset": dataset, "training": training, "loss": loss, "model": "sha2020",
             "segmentation": "ground-truth", "dictionary": "split"}
     printed = pd.read_csv(ROOT / "docs" / "results" / f"report_{metric}.csv")

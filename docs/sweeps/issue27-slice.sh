@@ -3,6 +3,10 @@
 # holding data/ (the quick stores) and results/, with a frozen clone of synthcal: a run is reused only while the
 # estimators', models' and training's code hash is unchanged, so later sessions must keep using the same clone.
 # Resumable: bench reuses finished runs; kill it at any time and start it again.
+# On a reset machine (the thirty-sixth session's way back to step 18, 2 min): git clone /work/main /work/sweep29/code &&
+#   git -C /work/sweep29/code checkout e8eb178 && make -C /work/sweep29/code venv; then in /work/sweep29 step 0's
+#   generate for just the scenes the next step reads (seconds; the regenerated stores give the archived run ids), the
+#   step itself in a script of its own under setsid nohup, and docs/sweeps/archive_runs.py for its archive.
 set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 cd "${SWEEP:-.}"

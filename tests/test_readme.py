@@ -27,3 +27,16 @@ def test_python_api_example_runs_and_prints_an_iou(tmp_path):
     assert found is not None, done.stdout
     assert 0.0 <= float(found.group(1)) <= 1.0
     assert list(tmp_path.iterdir()) == []  # it wrote only in its temporary folder
+
+
+INTERVAL = re.compile(r"[+−]\d+\.\d\d \[[+−]\d+\.\d\d, [+−]\d+\.\d\d\]")
+
+
+def test_every_interval_the_readme_quotes_is_one_the_report_prints():
+    """The README summarises docs/reproduction.md; a figure there that the report does not print (a rerun changed
+    it, a typo) would go unnoticed, since only the report is checked against the archives."""
+    readme = README.read_text(encoding="utf-8")
+    report = (README.parent / "docs" / "reproduction.md").read_text(encoding="utf-8")
+    quoted = INTERVAL.findall(readme)
+    assert quoted, "README.md quotes no interval: the pattern no longer matches its figures"
+    assert [interval for interval in quoted if interval not in report] == []

@@ -212,6 +212,9 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     assert f"{opening} of the proposed model's {len(proposed)} paired cells" in prose
     assert f"its mean is below in {sum(mean < 0 for mean in means)}," in prose
     assert f"excludes 0 in {sum(high < 0 for high in highs)} under `iou`" in prose
+    brief = " ".join(text.split("## In brief", 1)[1].split("\n## ", 1)[0].split())
+    assert f"of its {len(proposed)} cells paired by seed" in brief, "In brief counts another number of cells"
+    assert f"below by one in {sum(high < 0 for high in highs)};" in brief, "In brief counts another number below"
 
 
 def test_the_budget_table_is_the_archives_seconds():

@@ -74,11 +74,13 @@ TABLES = {
         ("runs_twentyninth.csv", "runs_thirtyfourth.csv"),
         ("runs_thirtyfourth.csv", "runs_fourteenth.csv"),
         ("runs_twentyninth.csv", "runs_thirtyfifth.csv"),
+        ("runs_thirtysixth.csv", "runs_twentyeighth.csv"),
     ]),
     # (Top-MSE-matching archive, MSE-matching archive or None).
     "matching": PairedTable("matching_score=top-mse", "matching_score=mse", "archives, Top-MSE − MSE matching", [
         ("runs_twentyfifth_worldcup.csv", None),
         ("runs_twentyeighth.csv", None),
+        ("runs_twentyninth.csv", "runs_thirtysixth.csv"),
     ]),
 }
 

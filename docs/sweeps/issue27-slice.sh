@@ -370,6 +370,8 @@ step $S bench --datasets intersection-5 --estimator sha2020-ccbv sha2020 propose
 #     with 15x's end-to-end Dice runs, Top-MSE matching, archive docs/results/runs_twentyninth.csv: --against ...
 #     --paired matching_score=top-mse matching_score=mse), queued behind 17 in the thirty-fifth session
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss dice --matching mse $SEL $COMMON --workers 2
+# ---- 18: done in the thirty-sixth session on a reset machine (15 runs in 110 min, 773–857 s each; archive
+#      docs/results/runs_thirtysixth.csv) ----
 # ---- 2026-12-01 (thirty-sixth session; the machine was reset: the clone at e8eb178 made again, intersections 3-5's
 #      stores regenerated — the runs' ids come out as archived —, a new results/) ----
 # 19. the matching table step by step with Top-MSE on intersections 3-5: the proposed model with MSE matching (pairs

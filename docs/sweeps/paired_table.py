@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
 import pandas as pd
@@ -100,6 +101,7 @@ def verdict(text: str) -> str:
     return text.replace("consistent with the paper (and with no difference)", "consistent (and with no difference)")
 
 
+@cache
 def devices(archive: Path) -> set[str]:
     """The devices an archive's runs trained on (``cpu``, ``cuda``)."""
     return set(read_archive(archive)["device"].dropna())

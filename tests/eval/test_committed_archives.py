@@ -186,9 +186,8 @@ def test_each_paired_table_is_what_its_script_prints(name: str, section: str):
     """reproduction.md's tables of end to end − step by step and of Top-MSE − MSE matching are
     docs/sweeps/paired_table.py's output today: a pair added to the script, an archive rewritten or a verdict rule
     changed without reprinting the table fails here."""
-    table = PAIRED_TABLES.TABLES[name]
     lines = PAIRED_TABLES.lines(name)
-    assert len(lines) == 2 + sum(len(PAIRED_TABLES.pair_cells(table, *pair)) for pair in table.pairs)
+    assert len(lines) > 2, f"paired_table.py {name} printed no rows"
     text = REPORT.read_text(encoding="utf-8").split(section, 1)[1].split("\n## ", 1)[0]
     assert "\n".join(lines) in text, f"{REPORT.name}, {section}: not the table `paired_table.py {name}` prints"
 

@@ -378,6 +378,8 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #     with the proposed runs of runs_thirtyfourth.csv and runs_thirtyfifth.csv: --paired matching_score=top-mse
 #     matching_score=mse)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training step-by-step --loss top-mse --matching mse $SEL $COMMON --workers 2
+# ---- 19: done over the thirty-sixth and thirty-seventh sessions (15 runs in 147 min of running, 891–1,498 s each;
+#      the machine restarted between, finished runs reused; archive docs/results/runs_thirtyseventh.csv) ----
 # 20. the same end to end (pairs with runs_twentyninth.csv's end-to-end Top-MSE runs, and with step 19's runs through
 #     --paired training=end-to-end training=step-by-step)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss top-mse --matching mse $SEL $COMMON --workers 2

@@ -82,6 +82,8 @@ TABLES = {
         ("runs_twentyfifth_worldcup.csv", None),
         ("runs_twentyeighth.csv", None),
         ("runs_twentyninth.csv", "runs_thirtysixth.csv"),
+        ("runs_thirtyfourth.csv", "runs_thirtyseventh.csv"),
+        ("runs_thirtyfifth.csv", "runs_thirtyseventh.csv"),
     ]),
 }
 

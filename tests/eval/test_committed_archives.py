@@ -192,6 +192,13 @@ def test_each_paired_table_is_what_its_script_prints(name: str, section: str):
     assert "\n".join(lines) in text, f"{REPORT.name}, {section}: not the table `paired_table.py {name}` prints"
 
 
+def _reading(cell: str) -> tuple[float, float, float]:
+    """``−0.81 [−1.25, −0.37]`` → the difference and its interval's bounds."""
+    mean, bounds = cell.split(" [")
+    low, high = bounds.rstrip("]").split(", ")
+    return _number(mean), _number(low), _number(high)
+
+
 def test_the_end_to_end_counts_count_the_end_to_end_table():
     """reproduction.md's "End to end against step by step" counts of the proposed model's cells — above by an
     interval that excludes 0, below on the mean, below by such an interval — against the rows of its table (`iou`:
@@ -201,8 +208,7 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     rows = [line.strip("| ").split(" | ") for line in section.splitlines()
             if line.startswith("| ") and not line.startswith("| cell")]
     proposed = [row for row in rows if row[0].endswith(", proposed")]
-    means = [_number(row[3].split(" [")[0]) for row in proposed]
-    lows, highs = zip(*(map(_number, row[3].split(" [")[1].rstrip("]").split(", ")) for row in proposed), strict=True)
+    means, lows, highs = zip(*(_reading(row[3]) for row in proposed), strict=True)
     above = sum(low > 0 for low in lows)
     prose = " ".join(section.split())
     words = ["none", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten"]
@@ -224,3 +230,18 @@ def test_the_budget_table_is_the_archives_seconds():
     table = [line for line in printed.splitlines() if line.startswith("|")]
     assert len(table) > 2, "run_seconds.py printed no rows"
     assert "\n".join(table) in REPORT.read_text(encoding="utf-8")
+
+
+def test_the_matching_summary_sums_up_the_matching_table():
+    """The sentence under "Every archived pair." — how many cells, their mean `iou` difference against the paper's,
+    how many are above 0 and how many by an interval that excludes 0 — against that table's rows."""
+    section = REPORT.read_text(encoding="utf-8").split("## The matching score", 1)[1].split("\n## ", 1)[0]
+    table = section.split("| cell | archives, Top-MSE − MSE matching |", 1)[1].split("\n\n", 1)
+    rows = [line.strip("| ").split(" | ") for line in table[0].splitlines()[2:]]
+    means, lows, highs = zip(*(_reading(row[3]) for row in rows), strict=True)
+    papers = [_number(row[2]) for row in rows]
+    excluding = sum(low > 0 or high < 0 for low, high in zip(lows, highs, strict=True))
+    summary = (f"Over its {len(rows)} cells the mean `iou` difference is {_signed(sum(means) / len(means))}, against "
+               f"the paper's {_signed(sum(papers) / len(papers))} over the same cells: {sum(m > 0 for m in means)} are "
+               f"above 0, {excluding or 'none'} by an interval that excludes 0 under `iou`.")
+    assert summary in " ".join(table[1].split()), f"not under the table: {summary}"

@@ -1,9 +1,12 @@
 """Splits of a store as PyTorch-style datasets (SPEC §6, §9); torch is imported by the first item read.
 
->>> train = load_split("out/intersection-1.zarr", "train", seed=0)   # doctest: +SKIP
->>> image, semantic, H = train[0]                                       # doctest: +SKIP
->>> image.shape, image.dtype, semantic.dtype, H.shape                  # doctest: +SKIP
-(torch.Size([3, 144, 256]), torch.float32, torch.int64, torch.Size([3, 3]))
+>>> import tempfile, synthcal
+>>> tmp = tempfile.TemporaryDirectory()
+>>> train = load_split(synthcal.generate_store("intersection-1", tmp.name, profile="smoke"), "train", seed=0)
+>>> image, semantic, H = train[0]
+>>> image.shape, image.dtype, semantic.dtype, H.shape     # the paper profile's images: (3, 144, 256)
+(torch.Size([3, 36, 64]), torch.float32, torch.int64, torch.Size([3, 3]))
+>>> tmp.cleanup()
 
 A split is read once, shard by shard in sorted index order, decoded straight into
 its arrays (:mod:`synthcal.store.shards`: 50–130× faster than zarr-python's

@@ -1,9 +1,14 @@
 """The pool dictionary: every pool sample outside a seed's train, test and validation sets, read lazily.
 
->>> d = load_pool_dictionary("out/intersection-1.zarr", seed=0)      # doctest: +SKIP
->>> len(d), d.semantics.shape                                         # doctest: +SKIP
-(46000, (46000, 144, 256))
->>> for start, maps in d.semantics.batches(1024): ...                 # doctest: +SKIP
+>>> import tempfile, synthcal
+>>> tmp = tempfile.TemporaryDirectory()
+>>> store = synthcal.generate_store("intersection-1", tmp.name, profile="smoke")   # 64 × 36 images
+>>> d = load_pool_dictionary(store, seed=0)
+>>> len(d), d.semantics.shape           # the paper profile's store: (46000, (46000, 144, 256))
+(12, (12, 36, 64))
+>>> [(start, maps.shape) for start, maps in d.semantics.batches(8)]
+[(0, (8, 36, 64)), (8, (4, 36, 64))]
+>>> tmp.cleanup()
 
 The object is a :class:`synthcal.data.SplitDataset` (``split`` ``dictionary``,
 ``pool`` True) whose ``images``, ``semantics`` and ``homographies`` are

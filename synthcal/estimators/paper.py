@@ -1,10 +1,17 @@
 """The paper's models as estimators (SPEC §7, §9): UNet → Siamese → STN.
 
->>> est = load_estimator("proposed", training="step-by-step", loss="top-mse",
-...                      matching="top-mse", settings={"stn_epochs": 5})      # doctest: +SKIP
->>> est.fit(train, dictionary, train.scene)                                    # doctest: +SKIP
->>> est.predict(test.images).shape                                              # doctest: +SKIP
-(500, 3, 3)
+>>> import tempfile, synthcal
+>>> from synthcal.estimators import load_estimator
+>>> tmp = tempfile.TemporaryDirectory()
+>>> store = synthcal.generate_store("intersection-1", tmp.name, profile="smoke")
+>>> train, dictionary, test = (synthcal.load_split(store, split) for split in ("train", "dictionary", "test"))
+>>> settings = synthcal.load_config().training("smoke").settings()   # tiny networks, an epoch each
+>>> est = load_estimator("proposed", training="step-by-step", loss="top-mse", matching="top-mse",
+...                      settings=settings, device="cpu")
+>>> est.fit(train, dictionary, train.scene)
+>>> est.predict(test.images).shape      # one bird's-eye → image homography per test image
+(8, 3, 3)
+>>> tmp.cleanup()
 
 Options
 -------

@@ -34,10 +34,13 @@ def conditions(pairs: list[str]) -> dict[str, list[str]]:
 
 
 def folder_runs(results: Path, synthcal: str) -> pd.DataFrame:
-    """The runs archive of a whole results folder, as the CLI prints it."""
+    """The runs archive of a whole results folder, as the CLI prints it (its error, one line, when it cannot)."""
     printed = subprocess.run([synthcal, "table", str(results), "--layout", "runs", "--format", "csv"],
-                             capture_output=True, text=True, check=True).stdout
-    return pd.read_csv(io.StringIO(printed), dtype=str, keep_default_na=False)
+                             capture_output=True, text=True)
+    if printed.returncode != 0:
+        reason = (printed.stderr.strip().splitlines() or [f"exit status {printed.returncode}"])[-1]
+        raise SystemExit(f"{results}: `{synthcal} table` printed no runs archive: {reason}")
+    return pd.read_csv(io.StringIO(printed.stdout), dtype=str, keep_default_na=False)
 
 
 def main() -> None:

@@ -6,15 +6,14 @@ prints it back row for row, so a slice of it is known without running a sweep.
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from sweep_scripts import ROOT, sweep_script
 
-ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "docs" / "sweeps" / "archive_runs.py"
 FOLDER = ROOT / "docs" / "results" / "runs_thirtyseventh.csv"  # intersections 3, 4 and 5, five seeds each
 SYNTHCAL = Path(sys.executable).with_name("synthcal")
@@ -27,10 +26,7 @@ def _as_printed(archive: Path) -> pd.DataFrame:
 @pytest.fixture(scope="module")
 def script():
     """The script as a module, reading FOLDER with pandas instead of through the CLI (one test runs the CLI)."""
-    spec = importlib.util.spec_from_file_location("sweeps_archive_runs", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = sweep_script("archive_runs")
     module.folder_runs = lambda results, synthcal: _as_printed(results)
     return module
 
@@ -84,3 +80,9 @@ def test_an_archive_of_other_columns_is_not_appended_to(script, monkeypatch, tmp
     with pytest.raises(SystemExit, match="its columns differ"):
         _archive(script, monkeypatch, out, "--where", "dataset=intersection-3", "--expect", "5")
     assert out.read_bytes() == before
+
+
+def test_a_folder_the_cli_cannot_read_is_one_line_naming_it(tmp_path):
+    missing = tmp_path / "results"
+    with pytest.raises(SystemExit, match=f"^{missing}: .* no such results folder"):
+        sweep_script("archive_runs").folder_runs(missing, str(SYNTHCAL))

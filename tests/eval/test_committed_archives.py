@@ -10,20 +10,18 @@ archives with ``--against``).
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from sweep_scripts import REPORT, ROOT, report_section, sweep_script, table_rows
 
 import synthcal
 from synthcal.eval.statistics import UNDECIDED, VERDICTS
 
-ROOT = Path(__file__).resolve().parents[2]
 ARCHIVES = sorted((ROOT / "docs" / "results").glob("runs_*.csv"))
-REPORT = ROOT / "docs" / "reproduction.md"
 
 
 def _signed(value: float) -> str:
@@ -113,22 +111,11 @@ LOSS_PAIRS = [
 ]
 
 
-def _sweep_script(name: str):
-    """A script of docs/sweeps/ imported as a module (they are run by hand, not installed)."""
-    path = ROOT / "docs" / "sweeps" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(f"sweeps_{name}", path)
-    assert spec is not None and spec.loader is not None, path
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # a dataclass of the script looks its module up while it is defined
-    spec.loader.exec_module(module)
-    return module
-
-
 # The paired comparisons of the two trainings reproduction.md quotes ("End to end against step by step"): the
 # end-to-end runs' archive, the step-by-step runs' (None: the same one), kept in the script that prints the table.
 # Pairs across archives whose runs differ in what no key shows (the fits ranked by another validation score:
 # runs_twentyfourth_iou.csv, runs_twentythird_iou.csv) are left out: the report does not quote them.
-PAIRED_TABLES = _sweep_script("paired_table")
+PAIRED_TABLES = sweep_script("paired_table")
 TRAINING_PAIRS = PAIRED_TABLES.TABLES["training"].pairs
 QUOTED_PAIRS = [
     *[(archive, against, f"loss={a}", f"loss={b}") for archive, against, a, b in LOSS_PAIRS],
@@ -188,8 +175,7 @@ def test_each_paired_table_is_what_its_script_prints(name: str, section: str):
     changed without reprinting the table fails here."""
     lines = PAIRED_TABLES.lines(name)
     assert len(lines) > 2, f"paired_table.py {name} printed no rows"
-    text = REPORT.read_text(encoding="utf-8").split(section, 1)[1].split("\n## ", 1)[0]
-    assert "\n".join(lines) in text, f"{REPORT.name}, {section}: not the table `paired_table.py {name}` prints"
+    assert "\n".join(lines) in report_section(section), f"{REPORT.name}, {section}: not the table `paired_table.py {name}` prints"
 
 
 def _reading(cell: str) -> tuple[float, float, float]:
@@ -203,10 +189,8 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     """reproduction.md's "End to end against step by step" counts of the proposed model's cells — above by an
     interval that excludes 0, below on the mean, below by such an interval — against the rows of its table (`iou`:
     the cell, archives, paper, interval, verdict, ...)."""
-    text = REPORT.read_text(encoding="utf-8")
-    section = text.split("## End to end against step by step", 1)[1].split("\n## ", 1)[0]
-    rows = [line.strip("| ").split(" | ") for line in section.splitlines()
-            if line.startswith("| ") and not line.startswith("| cell")]
+    section = report_section("## End to end against step by step")
+    rows = table_rows(section)
     proposed = [row for row in rows if row[0].endswith(", proposed")]
     means, lows, highs = zip(*(_reading(row[3]) for row in proposed), strict=True)
     above = sum(low > 0 for low in lows)
@@ -217,7 +201,7 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     assert f"{opening} of the proposed model's {len(proposed)} paired cells" in prose
     assert f"its mean is below in {sum(mean < 0 for mean in means)}," in prose
     assert f"excludes 0 in {sum(high < 0 for high in highs)} under `iou`" in prose
-    brief = " ".join(text.split("## In brief", 1)[1].split("\n## ", 1)[0].split())
+    brief = " ".join(report_section("## In brief").split())
     assert f"of its {len(proposed)} cells paired by seed" in brief, "In brief counts another number of cells"
     assert f"below by one in {sum(high < 0 for high in highs)};" in brief, "In brief counts another number below"
 
@@ -235,9 +219,9 @@ def test_the_budget_table_is_the_archives_seconds():
 def test_the_matching_summary_sums_up_the_matching_table():
     """The sentence under "Every archived pair." — how many cells, their mean `iou` difference against the paper's,
     how many are above 0 and how many by an interval that excludes 0 — against that table's rows."""
-    section = REPORT.read_text(encoding="utf-8").split("## The matching score", 1)[1].split("\n## ", 1)[0]
+    section = report_section("## The matching score")
     table = section.split("| cell | archives, Top-MSE − MSE matching |", 1)[1].split("\n\n", 1)
-    rows = [line.strip("| ").split(" | ") for line in table[0].splitlines()[2:]]
+    rows = table_rows(table[0])
     means, lows, highs = zip(*(_reading(row[3]) for row in rows), strict=True)
     papers = [_number(row[2]) for row in rows]
     excluding = sum(low > 0 or high < 0 for low, high in zip(lows, highs, strict=True))

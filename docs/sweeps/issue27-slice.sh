@@ -383,6 +383,8 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 # 20. the same end to end (pairs with runs_twentyninth.csv's end-to-end Top-MSE runs, and with step 19's runs through
 #     --paired training=end-to-end training=step-by-step)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss top-mse --matching mse $SEL $COMMON --workers 2
+# ---- 20: done over the thirty-seventh and thirty-eighth sessions (15 runs, 854–1,280 s each; the sweep died with the
+#      session's end after six, the last nine in 79 min; archive docs/results/runs_thirtyeighth.csv) ----
 # ---- 2026-12-01 (thirty-seventh session; the same clone, stores and results/): 20 running at the stop, 21 and 22
 #      queued behind it (/work/sweep29/sweep53.sh) — the cells of the paper's matching table with the largest
 #      differences still unmeasured (its Top-MSE − MSE matching: Top-Dice step by step +4.08, +1.46, +1.71; MSE end to

@@ -76,6 +76,7 @@ TABLES = {
         ("runs_thirtyfourth.csv", "runs_fourteenth.csv"),
         ("runs_twentyninth.csv", "runs_thirtyfifth.csv"),
         ("runs_thirtysixth.csv", "runs_twentyeighth.csv"),
+        ("runs_thirtyeighth.csv", "runs_thirtyseventh.csv"),
     ]),
     # (Top-MSE-matching archive, MSE-matching archive or None).
     "matching": PairedTable("matching_score=top-mse", "matching_score=mse", "archives, Top-MSE − MSE matching", [
@@ -84,6 +85,7 @@ TABLES = {
         ("runs_twentyninth.csv", "runs_thirtysixth.csv"),
         ("runs_thirtyfourth.csv", "runs_thirtyseventh.csv"),
         ("runs_thirtyfifth.csv", "runs_thirtyseventh.csv"),
+        ("runs_twentyninth.csv", "runs_thirtyeighth.csv"),
     ]),
 }
 

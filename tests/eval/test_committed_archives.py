@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from scipy import stats
 from sweep_scripts import REPORT, ROOT, report_section, sweep_script, table_rows
 
 import synthcal
@@ -185,6 +186,9 @@ def _reading(cell: str) -> tuple[float, float, float]:
     return _number(mean), _number(low), _number(high)
 
 
+_WORDS = ["none", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten"]
+
+
 def test_the_end_to_end_counts_count_the_end_to_end_table():
     """reproduction.md's "End to end against step by step" counts of the proposed model's cells — above by an
     interval that excludes 0, below on the mean, below by such an interval — against the rows of its table (`iou`:
@@ -195,9 +199,8 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     means, lows, highs = zip(*(_reading(row[3]) for row in proposed), strict=True)
     above = sum(low > 0 for low in lows)
     prose = " ".join(section.split())
-    words = ["none", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten"]
-    assert above < len(words), f"{above} cells above: name the number in words here as the prose does"
-    opening = "In none" if above == 0 else f"Only in {words[above]}"
+    assert above < len(_WORDS), f"{above} cells above: name the number in words here as the prose does"
+    opening = "In none" if above == 0 else f"Only in {_WORDS[above]}"
     assert f"{opening} of the proposed model's {len(proposed)} paired cells" in prose
     assert f"its mean is below in {sum(mean < 0 for mean in means)}," in prose
     assert f"excludes 0 in {sum(high < 0 for high in highs)} under `iou`" in prose
@@ -218,7 +221,8 @@ def test_the_budget_table_is_the_archives_seconds():
 
 def test_the_matching_summary_sums_up_the_matching_table():
     """The sentence under "Every archived pair." — how many cells, their mean `iou` difference against the paper's,
-    how many are above 0 and how many by an interval that excludes 0 — against that table's rows."""
+    how many are above 0 and how many by an interval that excludes 0, the t interval of the average over the cells
+    and over the datasets' averages — against that table's rows (scipy's interval, not synthcal's)."""
     section = report_section("## The matching score")
     table = section.split("| cell | archives, Top-MSE − MSE matching |", 1)[1].split("\n\n", 1)
     rows = table_rows(table[0])
@@ -227,5 +231,17 @@ def test_the_matching_summary_sums_up_the_matching_table():
     excluding = sum(low > 0 or high < 0 for low, high in zip(lows, highs, strict=True))
     summary = (f"Over its {len(rows)} cells the mean `iou` difference is {_signed(sum(means) / len(means))}, against "
                f"the paper's {_signed(sum(papers) / len(papers))} over the same cells: {sum(m > 0 for m in means)} are "
-               f"above 0, {excluding or 'none'} by an interval that excludes 0 under `iou`.")
-    assert summary in " ".join(table[1].split()), f"not under the table: {summary}"
+               f"above 0, {_WORDS[excluding]} by an interval that excludes 0 under `iou`.")
+    prose = " ".join(table[1].split())
+    assert summary in prose, f"not under the table: {summary}"
+    datasets = pd.Series(means).groupby([row[0].split(",")[0] for row in rows]).mean()
+    averages = (f"A t interval over the {len(rows)} cells puts the average at {_mean_interval(means)}; averaged "
+                f"within each of the {len(datasets)} datasets first (a dataset's cells share its stores and seeds, "
+                f"so they are not independent), at {_mean_interval(datasets)}.")
+    assert averages in prose, f"not under the table: {averages}"
+
+
+def _mean_interval(values) -> str:
+    """``+0.19 [−0.03, +0.41]``: the mean of ``values`` and its 95 % t interval (scipy's, not synthcal's)."""
+    low, high = stats.ttest_1samp(list(values), 0.0).confidence_interval(0.95)
+    return _interval(sum(values) / len(values), low, high)

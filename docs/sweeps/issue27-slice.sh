@@ -392,5 +392,8 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 # 21. the matching table step by step with Top-Dice on intersections 3-5: the proposed model with MSE matching (pairs
 #     with the proposed runs of runs_twentyseventh.csv: --against ... --paired matching_score=top-mse matching_score=mse)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training step-by-step --loss top-dice --matching mse $SEL $COMMON --workers 2
+# ---- 21: intersection-3 done in the thirty-eighth session (5 runs, 833–1,393 s each; archive
+#      docs/results/runs_thirtyninth.csv, where intersections 4 and 5 are appended with archive_runs.py); 4 and 5
+#      running at the stop (/work/sweep29/sweep54.sh, which replaced sweep53.sh) ----
 # 22. the same end to end with MSE (pairs with runs_twentyninth.csv's end-to-end MSE runs)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2

@@ -86,6 +86,7 @@ TABLES = {
         ("runs_thirtyfourth.csv", "runs_thirtyseventh.csv"),
         ("runs_thirtyfifth.csv", "runs_thirtyseventh.csv"),
         ("runs_twentyninth.csv", "runs_thirtyeighth.csv"),
+        ("runs_twentyseventh.csv", "runs_thirtyninth.csv"),
     ]),
 }
 

@@ -383,12 +383,12 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 # 20. the same end to end (pairs with runs_twentyninth.csv's end-to-end Top-MSE runs, and with step 19's runs through
 #     --paired training=end-to-end training=step-by-step)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss top-mse --matching mse $SEL $COMMON --workers 2
-# ---- 20: done over the thirty-seventh and thirty-eighth sessions (15 runs, 854–1,280 s each; the sweep died with the
-#      session's end after six, the last nine in 79 min; archive docs/results/runs_thirtyeighth.csv) ----
 # ---- 2026-12-01 (thirty-seventh session; the same clone, stores and results/): 20 running at the stop, 21 and 22
 #      queued behind it (/work/sweep29/sweep53.sh) — the cells of the paper's matching table with the largest
 #      differences still unmeasured (its Top-MSE − MSE matching: Top-Dice step by step +4.08, +1.46, +1.71; MSE end to
 #      end +3.08, +2.39, +2.10 on intersections 3, 4, 5) ----
+# ---- 20: done over the thirty-seventh and thirty-eighth sessions (15 runs, 854–1,280 s each; the sweep died with the
+#      session's end after six, the last nine in 79 min; archive docs/results/runs_thirtyeighth.csv) ----
 # 21. the matching table step by step with Top-Dice on intersections 3-5: the proposed model with MSE matching (pairs
 #     with the proposed runs of runs_twentyseventh.csv: --against ... --paired matching_score=top-mse matching_score=mse)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training step-by-step --loss top-dice --matching mse $SEL $COMMON --workers 2

@@ -87,6 +87,7 @@ TABLES = {
         ("runs_thirtyfifth.csv", "runs_thirtyseventh.csv"),
         ("runs_twentyninth.csv", "runs_thirtyeighth.csv"),
         ("runs_twentyseventh.csv", "runs_thirtyninth.csv"),
+        ("runs_twentyninth.csv", "runs_fortieth.csv"),
     ]),
 }
 

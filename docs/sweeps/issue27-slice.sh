@@ -392,15 +392,13 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 # 21. the matching table step by step with Top-Dice on intersections 3-5: the proposed model with MSE matching (pairs
 #     with the proposed runs of runs_twentyseventh.csv: --against ... --paired matching_score=top-mse matching_score=mse)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training step-by-step --loss top-dice --matching mse $SEL $COMMON --workers 2
-# ---- 21: intersection-3 done in the thirty-eighth session (5 runs, 833–1,393 s each; archive
-#      docs/results/runs_thirtyninth.csv, where intersections 4 and 5 are appended with archive_runs.py); 4 and 5
-#      running at the stop (/work/sweep29/sweep54.sh, which replaced sweep53.sh) ----
-# ---- 21: done in the thirty-ninth session (the sweep had died with the thirty-eighth's end after seven runs; the
-#      last eight in 53 min, 698-1,393 s each over the step; intersections 4 and 5 appended to runs_thirtyninth.csv) ----
+# ---- 21: done over the thirty-eighth and thirty-ninth sessions (/work/sweep29/sweep54.sh, which replaced sweep53.sh;
+#      15 runs, 698–1,393 s each; the sweep died with the thirty-eighth's end after seven, the last eight in 53 min;
+#      archive docs/results/runs_thirtyninth.csv, intersections 4 and 5 appended with archive_runs.py) ----
 # 22. the same end to end with MSE (pairs with runs_twentyninth.csv's end-to-end MSE runs)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2
 # ---- 2026-12-02 (thirty-ninth session; the same clone, stores and results/): 22's intersections 3 and 4 done (10 runs,
-#      743-1,130 s each; archive docs/results/runs_fortieth.csv, where intersection-5 is appended with archive_runs.py);
+#      743–1,130 s each; archive docs/results/runs_fortieth.csv, where intersection-5 is appended with archive_runs.py);
 #      5 running at the stop, 23 queued behind it (/work/sweep29/sweep55.sh) ----
 # 23. the matching table step by step with MSE on intersections 3-5: the proposed model with MSE matching (pairs with
 #     the MSE proposed runs of runs_eleventh.csv and runs_twelfth.csv: --paired matching_score=top-mse

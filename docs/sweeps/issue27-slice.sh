@@ -397,9 +397,9 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #      archive docs/results/runs_thirtyninth.csv, intersections 4 and 5 appended with archive_runs.py) ----
 # 22. the same end to end with MSE (pairs with runs_twentyninth.csv's end-to-end MSE runs)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2
-# ---- 2026-12-02 (thirty-ninth session; the same clone, stores and results/): 22's intersections 3 and 4 done (10 runs,
-#      743–1,130 s each; archive docs/results/runs_fortieth.csv, where intersection-5 is appended with archive_runs.py);
-#      5 running at the stop, 23 queued behind it (/work/sweep29/sweep55.sh) ----
+# ---- 2026-12-02 (thirty-ninth and fortieth sessions; the same clone, stores and results/): done (15 runs, 743–1,505 s
+#      each; the sweep died with the thirty-ninth's end after 12, the last three in 32 min; archive
+#      docs/results/runs_fortieth.csv, intersections 4 and 5 appended with archive_runs.py) ----
 # 23. the matching table step by step with MSE on intersections 3-5: the proposed model with MSE matching (pairs with
 #     the MSE proposed runs of runs_eleventh.csv and runs_twelfth.csv: --paired matching_score=top-mse
 #     matching_score=mse; and with step 22 through --paired training=end-to-end training=step-by-step; paper -1.50,

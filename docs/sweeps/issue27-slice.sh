@@ -405,3 +405,6 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #     matching_score=mse; and with step 22 through --paired training=end-to-end training=step-by-step; paper -1.50,
 #     -1.19, +0.46)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training step-by-step --loss mse --matching mse $SEL $COMMON --workers 2
+# ---- 2026-12-02 (fortieth session; the same clone, stores and results/; /work/sweep29/sweep56.sh, sweep55.sh without
+#      its wait, started beside step 22's last run): done (15 runs in 1 h 48 min, 693–958 s each; archive
+#      docs/results/runs_fortyfirst.csv, one dataset at a time with archive_runs.py) ----

@@ -77,6 +77,7 @@ TABLES = {
         ("runs_twentyninth.csv", "runs_thirtyfifth.csv"),
         ("runs_thirtysixth.csv", "runs_twentyeighth.csv"),
         ("runs_thirtyeighth.csv", "runs_thirtyseventh.csv"),
+        ("runs_fortieth.csv", "runs_fortyfirst.csv"),
     ]),
     # (Top-MSE-matching archive, MSE-matching archive or None).
     "matching": PairedTable("matching_score=top-mse", "matching_score=mse", "archives, Top-MSE − MSE matching", [
@@ -88,6 +89,8 @@ TABLES = {
         ("runs_twentyninth.csv", "runs_thirtyeighth.csv"),
         ("runs_twentyseventh.csv", "runs_thirtyninth.csv"),
         ("runs_twentyninth.csv", "runs_fortieth.csv"),
+        ("runs_eleventh.csv", "runs_fortyfirst.csv"),
+        ("runs_twelfth.csv", "runs_fortyfirst.csv"),
     ]),
 }
 

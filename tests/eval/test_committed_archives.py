@@ -243,7 +243,8 @@ def test_the_matching_summary_sums_up_the_matching_table():
 
 
 def _mean_interval(values: Sequence[float] | pd.Series) -> str:
-    """``+0.35 [+0.14, +0.55]``: the mean of ``values`` and its 95 % t interval (scipy's, not synthcal's)."""
+    """``+0.50 [−0.10, +1.10]`` (a made-up example, not a report figure): the mean of ``values`` and its 95 % t
+    interval (scipy's, not synthcal's)."""
     values = list(values)
     low, high = stats.ttest_1samp(values, 0.0).confidence_interval(0.95)
     return _interval(sum(values) / len(values), low, high)

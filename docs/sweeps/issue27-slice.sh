@@ -408,3 +408,9 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 # ---- 2026-12-02 (fortieth session; the same clone, stores and results/; /work/sweep29/sweep56.sh, sweep55.sh without
 #      its wait, started beside step 22's last run): done (15 runs in 1 h 48 min, 693–958 s each; archive
 #      docs/results/runs_fortyfirst.csv, one dataset at a time with archive_runs.py) ----
+# ---- 2026-12-02 (forty-first session; the machine was reset: the clone at e8eb178 made again, intersections 3-5's
+#      stores regenerated, a new results/; /work/sweep29/sweep57.sh) ----
+# 24. the matching table end to end with Top-Dice on intersections 3-5: the proposed model with MSE matching (pairs
+#     with runs_twentyninth.csv's end-to-end Top-Dice runs: --paired matching_score=top-mse matching_score=mse, paper
+#     +1.68, +1.48, 0.00; and with step 21 through --paired training=end-to-end training=step-by-step)
+step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss top-dice --matching mse $SEL $COMMON --workers 2

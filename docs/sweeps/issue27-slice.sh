@@ -414,3 +414,5 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #     with runs_twentyninth.csv's end-to-end Top-Dice runs: --paired matching_score=top-mse matching_score=mse, paper
 #     +1.68, +1.48, 0.00; and with step 21 through --paired training=end-to-end training=step-by-step)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss top-dice --matching mse $SEL $COMMON --workers 2
+# ---- 24: intersection-3 done in the forty-first session (5 runs, 1,016–1,059 s each; archive
+#      docs/results/runs_fortysecond.csv, --where ... dataset=intersection-3); intersections 4 and 5 running at its end ----

@@ -78,6 +78,7 @@ TABLES = {
         ("runs_thirtysixth.csv", "runs_twentyeighth.csv"),
         ("runs_thirtyeighth.csv", "runs_thirtyseventh.csv"),
         ("runs_fortieth.csv", "runs_fortyfirst.csv"),
+        ("runs_fortysecond.csv", "runs_thirtyninth.csv"),
     ]),
     # (Top-MSE-matching archive, MSE-matching archive or None).
     "matching": PairedTable("matching_score=top-mse", "matching_score=mse", "archives, Top-MSE − MSE matching", [
@@ -91,6 +92,7 @@ TABLES = {
         ("runs_twentyninth.csv", "runs_fortieth.csv"),
         ("runs_eleventh.csv", "runs_fortyfirst.csv"),
         ("runs_twelfth.csv", "runs_fortyfirst.csv"),
+        ("runs_twentyninth.csv", "runs_fortysecond.csv"),
     ]),
 }
 

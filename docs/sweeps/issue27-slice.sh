@@ -415,4 +415,8 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #     +1.68, +1.48, 0.00; and with step 21 through --paired training=end-to-end training=step-by-step)
 step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimator proposed --training end-to-end --loss top-dice --matching mse $SEL $COMMON --workers 2
 # ---- 24: intersection-3 done in the forty-first session (5 runs, 1,016–1,059 s each; archive
-#      docs/results/runs_fortysecond.csv, --where ... dataset=intersection-3); intersections 4 and 5 running at its end ----
+#      docs/results/runs_fortysecond.csv, --where ... dataset=intersection-3); intersections 4 and 5 running at its end
+#      (intersection-4's five finished there and were lost with the machine) ----
+# ---- 2026-12-02 (forty-second session; the machine reset again: the same clone, stores of intersections 4-5
+#      regenerated, /work/sweep29/sweep58.sh runs step 24 on intersections 4 and 5): intersection-4 done (5 runs,
+#      1,351-1,569 s each; appended to runs_fortysecond.csv with archive_runs.py ... dataset=intersection-4) ----

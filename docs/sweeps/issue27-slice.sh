@@ -418,5 +418,6 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #      docs/results/runs_fortysecond.csv, --where ... dataset=intersection-3); intersections 4 and 5 running at its end
 #      (intersection-4's five finished there and were lost with the machine) ----
 # ---- 2026-12-02 (forty-second session; the machine reset again: the same clone, stores of intersections 4-5
-#      regenerated, /work/sweep29/sweep58.sh runs step 24 on intersections 4 and 5): intersection-4 done (5 runs,
-#      1,351-1,569 s each; appended to runs_fortysecond.csv with archive_runs.py ... dataset=intersection-4) ----
+#      regenerated, /work/sweep29/sweep58.sh runs step 24 on intersections 4 and 5): done (intersection-4: 5 runs,
+#      1,351-1,569 s each; intersection-5: 5 runs, 972-1,375 s; 10 runs in 1 h 43 min; each appended to
+#      runs_fortysecond.csv with archive_runs.py ... dataset=intersection-N) ----

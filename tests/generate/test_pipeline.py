@@ -84,7 +84,7 @@ GOLDEN_ARRAYS = {
     "homography": "cabba0ad4ca29dd0d3f2365a6faa6a5b28860edcb21aa49b0efc2f55d1240a6f",
     "semantic": "4cc3eaa201beccb4b58e50eaab3f0f450cf08e93252a7ab15cc92f290d1e6fd0",
 }
-# The 5.1.0 one was computed by the code before the speed-up (d2bad53~1) run under OpenCV 5.1.0.
+# The 5.1.0 one was computed by the code before the speed-up (d2bad53~1 = a3ffd61) run under OpenCV 5.1.0.
 GOLDEN_IMAGE = {"5.0.0": "a111dc2456e13c72e96b8f4160478f4b6ab193f68c964fb22b37bd459a43b653",
                 "5.1.0": "967844cb31a0f45a0dfa7d4bc60b97557b07c0b2ffec29a27fe716d0f4d01936"}
 

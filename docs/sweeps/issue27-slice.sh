@@ -103,7 +103,7 @@ step $S bench --datasets intersection-1 intersection-2 --estimator proposed --ma
 # 21. (ninth session, run before 20) the STN's epoch ceiling doubled, intersection-1, Top-MSE, true maps, both
 #     models, on the true-map runs' frozen code (Siamese cached), in a folder of its own:
 #     `synthcal table results-stn48 --against results --paired loss=top-mse loss=top-mse` isolates the ceiling
-# mkdir -p results-stn48 && ln -sfn ../results/cache results-stn48/cache
+# mkdir -p results/cache results-stn48 && ln -sfn ../results/cache results-stn48/cache
 # step $S bench --config stn48.yaml --datasets intersection-1 --estimator sha2020 proposed $SEL --data data \
 #     --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
 # 20. the UNet cells of intersection-2 on main's code, class-weighted under the 30-epoch ceiling (replaces
@@ -421,3 +421,15 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #      regenerated, /work/sweep29/sweep58.sh runs step 24 on intersections 4 and 5): done (intersection-4: 5 runs,
 #      1,351-1,569 s each; intersection-5: 5 runs, 972-1,375 s; 10 runs in 1 h 43 min; each appended to
 #      runs_fortysecond.csv with archive_runs.py ... dataset=intersection-N) ----
+# ---- 2026-12-02 (forty-third session; the same machine, clone, stores and results/ as the forty-second;
+#      /work/sweep29/sweep59.sh; lost with that session's machine) and 2026-12-03 (forty-fourth session, a reset
+#      machine: the clone at e8eb178 made again, the stores of intersections 4 and 5 regenerated, a fresh cache; the
+#      first try died in seconds on a dangling cache link, so results/cache is made first) ----
+# 25. the STN's doubled ceiling (slice step 21's layer) on intersections 4 and 5, Top-MSE step by step, both models
+#     (pairs with runs_thirtyfifth.csv, the same code at 24 epochs: --against ... --paired loss=top-mse
+#     loss=top-mse per model); a folder of its own, the Siamese cache shared with results/
+mkdir -p results/cache results-stn48 && ln -sfn ../results/cache results-stn48/cache && cp "$HERE/stn48.yaml" .
+for dataset in intersection-4 intersection-5; do
+  step $S bench --config stn48.yaml --datasets $dataset --estimator sha2020 proposed $SEL --data data \
+      --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
+done

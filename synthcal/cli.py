@@ -614,11 +614,22 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     """Exit 0 when every run is ok, 1 when any failed (each printed with its reason), 130 on Ctrl-C."""
     from synthcal.config import load_config
     from synthcal.estimators.options import merge_options
-    from synthcal.eval.harness import check_device, expand_runs, is_finished, plan_lines, run_sweep
+    from synthcal.eval.harness import (
+        check_device,
+        check_results_cache,
+        expand_runs,
+        is_finished,
+        plan_lines,
+        run_sweep,
+    )
     from synthcal.eval.reproduction import missed_class_runs, tied_selection_runs
     from synthcal.eval.tables import counted
 
     _check_folder(args.results, "--results")
+    try:
+        check_results_cache(args.results)
+    except ValueError as error:
+        raise _UserError(f"--results: {error}") from None
     config = load_config(args.config)
     training = config.training(args.profile)
     if args.scheduler is None:  # a cluster's workers may have devices this machine lacks

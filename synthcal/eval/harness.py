@@ -334,7 +334,8 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
         :func:`collect_results` of the folder.
 
     Raises:
-        ValueError: ``threads`` is not a positive count.
+        ValueError: ``threads`` is not a positive count, or ``results/cache`` is a link to
+            nothing (a cache shared with another folder whose target is gone).
         KeyboardInterrupt: Ctrl-C; the running runs' processes are killed first, the
             finished runs stay and a rerun resumes with the others.
     """
@@ -344,6 +345,7 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
     runs = [with_device(run, device) for run in runs]
     # Now, not after the first run: a results folder that cannot be written stops the sweep at once.
     (results / "runs").mkdir(parents=True, exist_ok=True)
+    check_results_cache(results)
     sweep_exchanges(results)
     todo = list(runs) if rerun else [run for run in runs if not is_finished(results, run)]
     # Position 1: a run's own epoch bars (another process, which knows nothing of this one) draw on the
@@ -362,6 +364,16 @@ def run_sweep(runs: Sequence[Run], results: str | Path, device: str | None = Non
     finally:  # on Ctrl-C too: the bar's line ends before whatever is printed next
         bar.close()
     return collect_results(results)
+
+
+def check_results_cache(results: str | Path) -> None:
+    """Raise ValueError where ``results/cache`` is a symbolic link to nothing (a cache shared with another results
+    folder whose target is gone): every run would fail on it, each with a bare FileExistsError from creating the
+    folder the link stands in for."""
+    path = Path(results) / "cache"
+    if path.is_symlink() and not path.exists():
+        raise ValueError(f"{path}: a link to {os.readlink(path)}, which does not exist; "
+                         "make that folder or remove the link")
 
 
 def run_threads(workers: int, threads: int | None = None) -> int:

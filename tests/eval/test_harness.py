@@ -740,6 +740,23 @@ def test_a_sweep_with_threads_that_are_not_a_count_writes_nothing(data, tmp_path
     assert not (tmp_path / "results").exists()
 
 
+def test_a_sweep_whose_cache_links_to_nothing_stops_before_any_run(data, tmp_path, capsys):
+    """A results folder sharing another's cache through a link whose target is gone (a reset machine): one error
+    naming the link and its target, not a FileExistsError in every run."""
+    results = tmp_path / "results"
+    results.mkdir()
+    (results / "cache").symlink_to("../elsewhere/cache")
+    said = f"{results / 'cache'}: a link to ../elsewhere/cache, which does not exist"
+    assert bench(data, results, "identity", seeds="0") == 2
+    assert f"synthcal: error: --results: {said}" in capsys.readouterr().err
+    runs = expand_runs(data, ["intersection-1"], ["identity"], [0], "smoke")
+    with pytest.raises(ValueError, match=re.escape(said)):
+        run_sweep(runs, results)
+    assert list((results / "runs").iterdir()) == []
+    (tmp_path / "elsewhere" / "cache").mkdir(parents=True)
+    assert len(run_sweep(runs, results, progress=False)) == 1
+
+
 def test_bench_says_when_reused_runs_trained_at_another_thread_count(data, tmp_path, capsys):
     """A resumed sweep whose --workers gives its runs another torch thread count than the reused runs had."""
     results = tmp_path / "results"

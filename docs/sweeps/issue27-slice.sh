@@ -440,5 +440,7 @@ done
 mkdir -p results/cache results-stn48 && ln -sfn ../results/cache results-stn48/cache && cp "$HERE/stn48.yaml" .
 step $S bench --config stn48.yaml --datasets intersection-2 --estimator sha2020 proposed $SEL --data data \
     --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
-# step $NEW bench --datasets intersection-3 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
-#     --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2
+step $NEW bench --datasets intersection-3 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
+    --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2
+# ---- 2026-12-03 (forty-fifth session): step 26 done: intersection-2 with 48 epochs in 76 min (archive
+#      docs/results/runs_fortyfifth.csv), intersection-3 ranked by iou in 70 min (runs_fortyfifth_iou.csv) ----

@@ -436,8 +436,7 @@ done
 # 26. (forty-fifth session, a reset machine: the clone of e8eb178 again, intersection-2/-3 stores regenerated) the
 #     STN's doubled ceiling on intersection-2 (pairs with runs_thirteenth.csv, the same code at 24 epochs), then, on a
 #     clone of main (0c0556e, `--selection-score iou`), intersection-3 with the fits ranked by validation `iou`
-#     (pairs with runs_thirtyfourth.csv); each in a folder of its own, the first sharing results/'s Siamese cache
-mkdir -p results/cache results-stn48 && ln -sfn ../results/cache results-stn48/cache && cp "$HERE/stn48.yaml" .
+#     (pairs with runs_thirtyfourth.csv); each in a folder of its own, the first in step 25's (made there)
 step $S bench --config stn48.yaml --datasets intersection-2 --estimator sha2020 proposed $SEL --data data \
     --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
 step $NEW bench --datasets intersection-3 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \

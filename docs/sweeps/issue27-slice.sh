@@ -443,3 +443,12 @@ step $NEW bench --datasets intersection-3 --estimator sha2020 proposed --loss to
     --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2
 # ---- 2026-12-03 (forty-fifth session): step 26 done: intersection-2 with 48 epochs in 76 min (archive
 #      docs/results/runs_fortyfifth.csv), intersection-3 ranked by iou in 70 min (runs_fortyfifth_iou.csv) ----
+# 27. (forty-sixth session, the same machine, clones, stores and folders as step 26, intersection-4's store made
+#     with the clone of main) the STN's doubled ceiling on intersection-3 (pairs with runs_thirtyfourth.csv, the
+#     same code at 24 epochs), then, on the clone of main, intersection-4 with the fits ranked by validation `iou` (pairs with runs_thirtyfifth.csv)
+step $S bench --config stn48.yaml --datasets intersection-3 --estimator sha2020 proposed $SEL --data data \
+    --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
+step $NEW bench --datasets intersection-4 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
+    --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2
+# ---- 2026-12-03 (forty-sixth session): step 27's first cell done in 86 min (archive docs/results/runs_fortysixth.csv);
+#      intersection-4 ranked by iou started at 18:14 UTC ----

@@ -451,4 +451,4 @@ step $S bench --config stn48.yaml --datasets intersection-3 --estimator sha2020 
 step $NEW bench --datasets intersection-4 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
     --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2
 # ---- 2026-12-03 (forty-sixth session): step 27's first cell done in 86 min (archive docs/results/runs_fortysixth.csv);
-#      intersection-4 ranked by iou started at 18:14 UTC ----
+#      intersection-4 ranked by iou in 69 min (archive docs/results/runs_fortysixth_iou.csv) ----

@@ -429,26 +429,26 @@ step $S bench --datasets intersection-3 intersection-4 intersection-5 --estimato
 #     (pairs with runs_thirtyfifth.csv, the same code at 24 epochs: --against ... --paired loss=top-mse
 #     loss=top-mse per model); a folder of its own, the Siamese cache shared with results/
 mkdir -p results/cache results-stn48 && ln -sfn ../results/cache results-stn48/cache && cp "$HERE/stn48.yaml" .
-for dataset in intersection-4 intersection-5; do
-  step $S bench --config stn48.yaml --datasets $dataset --estimator sha2020 proposed $SEL --data data \
-      --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
-done
+# one cell of both models under the doubled ceiling, on the frozen code (steps 25-27)
+stn48_cell() { step $S bench --config stn48.yaml --datasets "$1" --estimator sha2020 proposed $SEL --data data \
+    --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48; }
+for dataset in intersection-4 intersection-5; do stn48_cell $dataset; done
 # 26. (forty-fifth session, a reset machine: the clone of e8eb178 again, intersection-2/-3 stores regenerated) the
 #     STN's doubled ceiling on intersection-2 (pairs with runs_thirteenth.csv, the same code at 24 epochs), then, on a
 #     clone of main (0c0556e, `--selection-score iou`), intersection-3 with the fits ranked by validation `iou`
 #     (pairs with runs_thirtyfourth.csv); each in a folder of its own, the first in step 25's (made there)
-step $S bench --config stn48.yaml --datasets intersection-2 --estimator sha2020 proposed $SEL --data data \
-    --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
-step $NEW bench --datasets intersection-3 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
-    --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2
+stn48_cell intersection-2
+# one cell of both models with the fits ranked by validation iou, on the clone of main (steps 26-27)
+iou_cell() { step $NEW bench --datasets "$1" --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
+    --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2; }
+iou_cell intersection-3
 # ---- 2026-12-03 (forty-fifth session): step 26 done: intersection-2 with 48 epochs in 76 min (archive
 #      docs/results/runs_fortyfifth.csv), intersection-3 ranked by iou in 70 min (runs_fortyfifth_iou.csv) ----
 # 27. (forty-sixth session, the same machine, clones, stores and folders as step 26, intersection-4's store made
 #     with the clone of main) the STN's doubled ceiling on intersection-3 (pairs with runs_thirtyfourth.csv, the
-#     same code at 24 epochs), then, on the clone of main, intersection-4 with the fits ranked by validation `iou` (pairs with runs_thirtyfifth.csv)
-step $S bench --config stn48.yaml --datasets intersection-3 --estimator sha2020 proposed $SEL --data data \
-    --profile quick --seeds 0-4 --quiet --yes --workers 2 --results results-stn48
-step $NEW bench --datasets intersection-4 --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
-    --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2
+#     same code at 24 epochs), then, on the clone of main, intersection-4 with the fits ranked by validation `iou`
+#     (pairs with runs_thirtyfifth.csv)
+stn48_cell intersection-3
+iou_cell intersection-4
 # ---- 2026-12-03 (forty-sixth session): step 27's first cell done in 86 min (archive docs/results/runs_fortysixth.csv);
 #      intersection-4 ranked by iou in 69 min (archive docs/results/runs_fortysixth_iou.csv) ----

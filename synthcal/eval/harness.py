@@ -549,8 +549,9 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
         means over scored test images, failures as 0, or medians of the pixel errors;
         NaN for a metric the run's record predates), the pixel errors' failure shares
         ``reproj_px_failed`` and ``corner_error_failed``, ``completeness``, ``n_images``, ``n_skipped``, ``status``, ``error`` (``""`` for a run
-        that is ok), ``run_id``, ``device``, ``torch_threads`` (the run process's torch threads, from
-        its ``machine`` record; None for NumPy estimators and records older than it),
+        that is ok), ``run_id``, ``device``, ``torch_threads`` and ``cpu_capability`` (the run process's torch
+        threads and the instruction set torch's CPU kernels used, ``AVX2``, ``AVX512``, …, from its ``machine``
+        record: what a bit-for-bit rerun must match; None for NumPy estimators and records older than them),
         ``chosen`` (:func:`chosen_text`: what validation chose),
         ``budget`` (:func:`training_budget`;
         None for estimators that do not train) and ``dictionary`` (``split``, or ``pool``:
@@ -579,13 +580,19 @@ def collect_results(results: str | Path, runs: Iterable[Run] | None = None) -> p
             warnings.warn(f"{path}: damaged run record skipped (no {error})", DamagedRecordWarning, stacklevel=2)
             continue
         row.update(status=record["status"], error=record.get("error") or "", run_id=record["id"],
-                   device=run.get("device"), torch_threads=(record.get("machine") or {}).get("torch_threads"),
+                   device=run.get("device"), **_machine_columns(record),
                    budget=training_budget(record), dictionary=run.get("dictionary", "split"), chosen=chosen_text(record))
         rows.append(row)
     columns = ["dataset", "model", "training", "loss", "matching_score", "segmentation", "profile", "seed",
                "estimator", *METRICS, *FAILURE_SHARES.values(), "completeness", "n_images", "n_skipped", "status", "error", "run_id",
-               "device", "torch_threads", "budget", "dictionary", "chosen"]
+               "device", "torch_threads", "cpu_capability", "budget", "dictionary", "chosen"]
     return pd.DataFrame(rows, columns=columns)
+
+
+def _machine_columns(record: dict[str, Any]) -> dict[str, Any]:
+    """``torch_threads`` and ``cpu_capability`` of a run's ``machine`` record (None where it names neither)."""
+    machine = record.get("machine") or {}
+    return {"torch_threads": machine.get("torch_threads"), "cpu_capability": machine.get("cpu_capability")}
 
 
 def table_runs(frame: pd.DataFrame, keys: Sequence[str] = ("training", "loss", "matching_score")) -> pd.DataFrame:

@@ -10,9 +10,9 @@ def write_run(results: Path, model: str, loss: str | None, seed: int, iou: float
                seconds: float, dataset: str = "intersection-1", unet_epochs: int | None = None,
                missed: list[int] | None = None, threads: int | None = None,
                scores: list[float] | None = None, training: str = "step-by-step", device: str | None = None,
-              train: int | None = None, settings: dict | None = None) -> None:
+              train: int | None = None, settings: dict | None = None, capability: str | None = None) -> None:
     """One finished run's record; ``lr`` None: a run that chose nothing (no ``selection``); ``threads``: the torch
-    threads its ``machine`` record names (None: a record without one); ``scores``: validation's score of each
+    threads its ``machine`` record names (None: a record without one), ``capability`` its ``cpu_capability``; ``scores``: validation's score of each
     learning rate of the grid (None: none recorded); ``train``: the train split's samples used, with training
     settings capping them at 1,500 (None: a record with neither); ``settings``: more resolved training settings."""
     run_id = f"{dataset}_{model}_{loss}_s{seed}" + (f"_{training}" if training != "step-by-step" else "") + (
@@ -31,5 +31,7 @@ def write_run(results: Path, model: str, loss: str | None, seed: int, iou: float
                                        **({"unet_epochs": unet_epochs} if unet_epochs else {})},
                             **({"scores": {"learning_rate": scores}} if scores else {})} if lr else None,
               **({"history": {"unet-missed-classes": missed}} if missed is not None else {}),
-              **({"machine": {"torch_threads": threads}} if threads is not None else {})}
+              **({"machine": {**({"torch_threads": threads} if threads is not None else {}),
+                              **({"cpu_capability": capability} if capability else {})}}
+                 if threads is not None or capability else {})}
     (folder / "run.json").write_text(json.dumps(record))

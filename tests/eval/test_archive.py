@@ -23,7 +23,8 @@ def folder(tmp_path_factory) -> Path:
     results = tmp_path_factory.mktemp("results")
     for loss, sign in (("top-mse", 1.0), ("mse", -1.0)):
         for seed in range(5):
-            write_run(results, "sha2020", loss, seed, BASE[seed], 0.001, 100.0 + seed, threads=1 + seed % 2)
+            write_run(results, "sha2020", loss, seed, BASE[seed], 0.001, 100.0 + seed, threads=1 + seed % 2,
+                      capability="AVX2" if seed == 3 else "AVX512")
             write_run(results, "proposed", loss, seed, BASE[seed] + sign * SHIFT[seed], 0.0003, 200.0 + seed,
                       unet_epochs=20 + seed, missed=[3] if seed == 1 else [])
             for model, iou in (("sha2020", BASE[seed]), ("proposed", BASE[seed] + sign * SHIFT[seed])):
@@ -54,6 +55,10 @@ def test_archive_holds_one_row_per_run_with_what_validation_chose(folder, tmp_pa
     # The torch threads each run's machine record names (a record without one: empty).
     assert np.isnan(row["torch_threads"])
     assert archive.set_index("run_id").loc["intersection-1_sha2020_mse_s1", "torch_threads"] == 2
+    # And the instruction set its torch kernels used: a rerun on another one differs in the last bits.
+    assert row.isna()["cpu_capability"]
+    assert archive.set_index("run_id")["cpu_capability"].filter(like="sha2020_mse").tolist() == \
+        ["AVX512", "AVX512", "AVX512", "AVX2", "AVX512"]
     # In Markdown, the keys that vary, the seed, the reading in percent and the choices.
     out, _ = _table(capsys, folder, "--layout", "runs")
     assert "| intersection-1 | proposed | mse | 1 | 63.00 | 0.0003 | 21 | 11 | 201 | intersection-1_proposed_mse_s1 |" \

@@ -30,8 +30,10 @@ from synthcal.training import TrainingData, train_stn
 from synthcal.utils.dispatch import usable_cores
 
 try:
+    from timing import add_stn_stage_arguments
     from training import training_data
 except ImportError:  # run as a module from the repository root
+    from benchmarks.timing import add_stn_stage_arguments
     from benchmarks.training import training_data
 
 LR = 1e-3
@@ -47,11 +49,7 @@ def trained(initial: nn.Module, data: TrainingData, epochs: int, batch: int, thr
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", type=int, nargs=2, default=(128, 72), metavar=("W", "H"),
-                        help="work size (default: the quick profile's 128 × 72)")
-    parser.add_argument("--batch", type=int, default=32)
-    parser.add_argument("--batches", type=int, default=4, help="batches per epoch")
-    parser.add_argument("--epochs", type=int, default=3)
+    add_stn_stage_arguments(parser)
     parser.add_argument("--threads", type=int, default=usable_cores())
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()

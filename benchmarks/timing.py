@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import time
 from collections.abc import Callable
 
@@ -16,3 +17,12 @@ def best_of(repeat: int, fn: Callable[[], object], clock: Callable[[], float] = 
         fn()
         times.append(clock() - started)
     return min(times)
+
+
+def add_stn_stage_arguments(parser: argparse.ArgumentParser) -> None:
+    """The STN-stage benchmarks' shared options: ``--size W H``, ``--batch``, ``--batches``, ``--epochs``."""
+    parser.add_argument("--size", type=int, nargs=2, default=(128, 72), metavar=("W", "H"),
+                        help="work size (default: the quick profile's 128 × 72)")
+    parser.add_argument("--batch", type=int, default=32)
+    parser.add_argument("--batches", type=int, default=4, help="batches per epoch")
+    parser.add_argument("--epochs", type=int, default=3)

@@ -148,7 +148,7 @@ __all__ = [
     "sweep_exchanges",
     "run_sweep",
     "run_threads",
-    "recorded_threads",
+    "recorded_machine",
     "collect_results",
     "is_finished",
     "recorded_seconds",
@@ -210,18 +210,19 @@ def is_finished(results: str | Path, run: Run) -> bool:
     return record is not None and record["status"] == "ok"
 
 
-def recorded_threads(results: str | Path, runs: Iterable[Run]) -> dict[int, int]:
-    """How many of the finished ``runs`` recorded each torch thread count (``machine`` of ``run.json``).
+def recorded_machine(results: str | Path, runs: Iterable[Run], key: str) -> dict[int | str, int]:
+    """How many of the finished ``runs`` recorded each value of ``key`` in their ``machine`` (``run.json``):
+    ``torch_threads`` or ``cpu_capability`` (:func:`synthcal.utils.machine.machine_record`).
 
-    Runs without a torch thread count (NumPy estimators, records older than the field) are not counted.
+    Runs without it (NumPy estimators, records older than the field) are not counted.
     """
-    counts: dict[int, int] = {}
+    counts: dict[int | str, int] = {}
     for run in runs:
         path = run_folder(results, run) / "run.json"
         record = read_record(path) if path.is_file() else None
-        threads = (record or {}).get("machine", {}).get("torch_threads")
-        if isinstance(threads, int):
-            counts[threads] = counts.get(threads, 0) + 1
+        value = (record or {}).get("machine", {}).get(key)
+        if isinstance(value, (int, str)) and not isinstance(value, bool):
+            counts[value] = counts.get(value, 0) + 1
     return counts
 
 

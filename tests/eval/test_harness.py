@@ -780,6 +780,27 @@ def test_bench_says_when_reused_runs_trained_at_another_thread_count(data, tmp_p
     assert "torch thread count" not in capsys.readouterr().out
 
 
+def test_bench_says_when_reused_runs_trained_on_another_cpu_instruction_set(data, tmp_path, capsys):
+    """A sweep resumed on a machine whose torch picks another instruction set (the proposed model's last digits)."""
+    results = tmp_path / "results"
+    assert bench(data, results, "identity", seeds="0-1") == 0
+    capsys.readouterr()
+    ours = torch.backends.cpu.get_cpu_capability()
+    records = sorted((results / "runs").glob("*/run.json"))
+    for path, capability in zip(records, ("AVX-ELSEWHERE", None), strict=True):  # None: a record without one
+        record = json.loads(path.read_text())
+        record["machine"].pop("cpu_capability", None)  # the identity estimator never imports torch
+        if capability is not None:
+            record["machine"]["cpu_capability"] = capability
+        path.write_text(json.dumps(record))
+    assert bench(data, results, "identity", seeds="0-1") == 0
+    assert (f"bench: 1 of the 2 reused runs trained on another CPU instruction set (1 on AVX-ELSEWHERE) than "
+            f"this machine's torch uses ({ours})") in capsys.readouterr().out
+    records[0].write_text(records[0].read_text().replace("AVX-ELSEWHERE", ours))
+    assert bench(data, results, "identity", seeds="0-1") == 0
+    assert "instruction set" not in capsys.readouterr().out
+
+
 def test_two_workers_score_as_one_and_train_a_shared_stage_once(data, tmp_path, capsys):
     """baseline and proposed need the same Siamese: run at once, one trains it, the other waits and loads it.
     At a fixed thread count (--threads), two workers' figures are one worker's to the bit."""

@@ -438,8 +438,8 @@ for dataset in intersection-4 intersection-5; do stn48_cell $dataset; done
 #     clone of main (0c0556e, `--selection-score iou`), intersection-3 with the fits ranked by validation `iou`
 #     (pairs with runs_thirtyfourth.csv); each in a folder of its own, the first in step 25's (made there)
 stn48_cell intersection-2
-# one cell of both models with the fits ranked by validation iou, on the clone of main (steps 26-27)
-iou_cell() { step $NEW bench --datasets "$1" --estimator sha2020 proposed --loss top-mse $SEL --selection-score iou \
+# one cell of both models with the fits ranked by validation iou, on the clone of main (steps 26-28): DATASET [LOSS]
+iou_cell() { step $NEW bench --datasets "$1" --estimator sha2020 proposed --loss "${2:-top-mse}" $SEL --selection-score iou \
     --data data --results results-iou --profile quick --seeds 0-4 --quiet --yes --workers 2; }
 iou_cell intersection-3
 # ---- 2026-12-03 (forty-fifth session): step 26 done: intersection-2 with 48 epochs in 76 min (archive
@@ -452,3 +452,8 @@ stn48_cell intersection-3
 iou_cell intersection-4
 # ---- 2026-12-03 (forty-sixth session): step 27's first cell done in 86 min (archive docs/results/runs_fortysixth.csv);
 #      intersection-4 ranked by iou in 69 min (archive docs/results/runs_fortysixth_iou.csv) ----
+# 28. (forty-seventh session, a reset machine: a clone of main 95761fc, whose synthcal/ is 0c0556e's; the stores of
+#     intersections 5 and 1 made with it, a fresh Siamese cache) intersection-5 with the fits ranked by validation
+#     `iou` (pairs with runs_thirtyfifth.csv), then intersection-1 with Dice (pairs with runs_tenth.csv), chained
+iou_cell intersection-5
+iou_cell intersection-1 dice

@@ -457,3 +457,5 @@ iou_cell intersection-4
 #     `iou` (pairs with runs_thirtyfifth.csv), then intersection-1 with Dice (pairs with runs_tenth.csv), chained
 iou_cell intersection-5
 iou_cell intersection-1 dice
+# ---- 2026-12-04 (forty-seventh session): step 28 done: intersection-5 in 55 min, intersection-1 with Dice in 43 min
+#      (archive docs/results/runs_fortyseventh_iou.csv, both cells) ----

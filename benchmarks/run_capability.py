@@ -31,13 +31,12 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 try:
-    from timing import add_stn_stage_arguments
+    from timing import add_stn_stage_arguments, best_of, compared_weights
 except ImportError:  # run as a module from the repository root
-    from benchmarks.timing import add_stn_stage_arguments
+    from benchmarks.timing import add_stn_stage_arguments, best_of, compared_weights
 
 LR = 1e-3
 # From the richest to the plainest: a process can lower its capability, never raise it.
@@ -62,13 +61,10 @@ def stage(size: tuple[int, int], batch: int, batches: int, epochs: int, repeat: 
         torch.manual_seed(0)
         initial = cls(8, image_size=size)
         train_stn(copy.deepcopy(initial), data, None, "top-mse", 1, batch, LR, torch.device("cpu"))  # warm-up
-        seconds = []
-        for _ in range(repeat):
-            started = time.perf_counter()
-            stn = train_stn(copy.deepcopy(initial), data, None, "top-mse", epochs, batch, LR, torch.device("cpu"))
-            seconds.append(time.perf_counter() - started)
-        torch.save(stn.state_dict(), out / f"{name}.pt")
-        report[name] = min(seconds) / steps * 1e3
+        trained: list[torch.nn.Module] = []  # the last call's STN, whose weights are compared
+        report[name] = best_of(repeat, lambda initial=initial, trained=trained: trained.append(train_stn(
+            copy.deepcopy(initial), data, None, "top-mse", epochs, batch, LR, torch.device("cpu")))) / steps * 1e3
+        torch.save(trained[-1].state_dict(), out / f"{name}.pt")
     print(json.dumps(report))
 
 
@@ -87,13 +83,10 @@ def measured(capability: str | None, args: argparse.Namespace, out: Path) -> dic
 
 
 def compared(a: Path, b: Path) -> tuple[bool, float]:
-    """Whether two saved state dicts are equal, and their largest difference."""
+    """:func:`compared_weights` of two saved state dicts."""
     import torch
 
-    first, second = torch.load(a), torch.load(b)
-    pairs = [(first[k], second[k]) for k in first]
-    same = all(torch.equal(x, y) for x, y in pairs)
-    return same, max((x - y).abs().max().item() for x, y in pairs if x.is_floating_point())
+    return compared_weights(torch.load(a), torch.load(b))
 
 
 def main() -> None:

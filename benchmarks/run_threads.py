@@ -30,10 +30,10 @@ from synthcal.training import TrainingData, train_stn
 from synthcal.utils.dispatch import usable_cores
 
 try:
-    from timing import add_stn_stage_arguments
+    from timing import add_stn_stage_arguments, compared_weights
     from training import training_data
 except ImportError:  # run as a module from the repository root
-    from benchmarks.timing import add_stn_stage_arguments
+    from benchmarks.timing import add_stn_stage_arguments, compared_weights
     from benchmarks.training import training_data
 
 LR = 1e-3
@@ -72,14 +72,10 @@ def main() -> None:
         # The control: at one thread, every repeat trains to the same weights.
         repeatable = all(torch.equal(a, b) for stn in one_stns[1:] for a, b in zip(
             one_stns[0].state_dict().values(), stn.state_dict().values(), strict=True))
-        differences = [(a - b).abs().max().item() for a, b in zip(one_stn.state_dict().values(),
-                                                                     many_stn.state_dict().values(), strict=True)
-                       if a.is_floating_point()]
-        same = all(torch.equal(a, b) for a, b in zip(one_stn.state_dict().values(),
-                                                     many_stn.state_dict().values(), strict=True))
+        same, largest = compared_weights(one_stn.state_dict(), many_stn.state_dict())
         print(f"{name:8s} 1 thread {min(one) / steps * 1e3:7.1f} ms/step | {args.threads} threads "
               f"{min(many) / steps * 1e3:7.1f} ms/step | ratio {min(many) / min(one):5.3f} | "
-              f"same weights: {same} (largest difference {max(differences):.2e}); "
+              f"same weights: {same} (largest difference {largest:.2e}); "
               f"1 thread, {args.repeat} repeats alike: {repeatable}")
 
 

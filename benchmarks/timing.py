@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from typing import Any
 
 
 def best_of(repeat: int, fn: Callable[[], object], clock: Callable[[], float] = time.perf_counter) -> float:
@@ -26,3 +27,12 @@ def add_stn_stage_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--batch", type=int, default=32)
     parser.add_argument("--batches", type=int, default=4, help="batches per epoch")
     parser.add_argument("--epochs", type=int, default=3)
+
+
+def compared_weights(first: dict[str, Any], second: dict[str, Any]) -> tuple[bool, float]:
+    """Whether two state dicts (``nn.Module.state_dict()``) are equal to the bit, and their largest difference."""
+    import torch
+
+    pairs = [(first[key], second[key]) for key in first]
+    same = all(torch.equal(a, b) for a, b in pairs)
+    return same, max((a - b).abs().max().item() for a, b in pairs if a.is_floating_point())

@@ -13,7 +13,7 @@ import os
 import sys
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -654,9 +654,12 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     print("\n".join(plan_lines(runs)), flush=True)
     if args.scheduler is None:
         to_run = {run.id for run in todo}
+        from synthcal.eval.harness import recorded_machine
+
         reused = [run for run in runs if run.id not in to_run]
-        _warn_thread_counts(args.results, reused, args.workers, args.threads)
-        _warn_cpu_capability(args.results, reused)
+        recorded = recorded_machine(args.results, reused, "torch_threads", "cpu_capability")
+        _warn_thread_counts(recorded["torch_threads"], len(reused), args.workers, args.threads)
+        _warn_cpu_capability(recorded["cpu_capability"], len(reused))
     if not _preview_bench(todo, args):
         print("synthcal: no run started", file=sys.stderr)
         return 1
@@ -685,33 +688,32 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 1 if len(failed) else 0
 
 
-def _warn_thread_counts(results: Path, reused: Sequence[Run], workers: int, fixed: int | None) -> None:
-    """One line when reused runs trained at another torch thread count than this sweep's runs get.
+def _warn_thread_counts(recorded: Mapping[int | str, int], reused: int, workers: int, fixed: int | None) -> None:
+    """One line when some of the ``reused`` runs trained at another torch thread count than this sweep's runs get
+    (``recorded``: how many runs recorded each count).
 
     The thread count orders torch's sums; over a training the rounding can move the epoch
     validation keeps, so such figures need not agree to the digit (docs/benchmark.md).
     """
-    from synthcal.eval.harness import recorded_machine, run_threads
+    from synthcal.eval.harness import run_threads
 
     threads = run_threads(workers, fixed)
-    other = {count: n for count, n in recorded_machine(results, reused, "torch_threads").items() if count != threads}
+    other = {count: n for count, n in recorded.items() if count != threads}
     if other:
         listed = ", ".join(f"{n} at {count}" for count, n in sorted(other.items()))
-        print(f"bench: {sum(other.values())} of the {len(reused)} reused runs trained at another torch thread "
+        print(f"bench: {sum(other.values())} of the {reused} reused runs trained at another torch thread "
               f"count ({listed}) than this sweep's runs get ({threads}, "
               f"{f'--threads {fixed}' if fixed else f'--workers {workers}'}): their figures compare to the new "
               f"ones only up to the thread count's rounding (docs/benchmark.md); --threads sets it", flush=True)
 
 
-def _warn_cpu_capability(results: Path, reused: Sequence[Run]) -> None:
-    """One line when reused runs trained on another CPU instruction set than this machine's torch uses.
+def _warn_cpu_capability(recorded: Mapping[int | str, int], reused: int) -> None:
+    """One line when some of the ``reused`` runs trained on another CPU instruction set than this machine's torch
+    uses (``recorded``: how many runs recorded each).
 
     The proposed STN's self-attention is one of torch's own kernels, whose rounding follows
     the instruction set (benchmarks/README.md, ``run_capability.py``).
     """
-    from synthcal.eval.harness import recorded_machine
-
-    recorded = recorded_machine(results, reused, "cpu_capability")
     if not recorded:
         return  # torch is not imported for nothing
     import torch
@@ -720,7 +722,7 @@ def _warn_cpu_capability(results: Path, reused: Sequence[Run]) -> None:
     other = {str(name): n for name, n in recorded.items() if name != own}
     if other:
         listed = ", ".join(f"{n} on {name}" for name, n in sorted(other.items()))
-        print(f"bench: {sum(other.values())} of the {len(reused)} reused runs trained on another CPU instruction "
+        print(f"bench: {sum(other.values())} of the {reused} reused runs trained on another CPU instruction "
               f"set ({listed}) than this machine's torch uses ({own}): the proposed model's figures compare to "
               f"the new ones only up to its rounding (benchmarks/README.md, run_capability.py)", flush=True)
 

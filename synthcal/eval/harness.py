@@ -210,19 +210,22 @@ def is_finished(results: str | Path, run: Run) -> bool:
     return record is not None and record["status"] == "ok"
 
 
-def recorded_machine(results: str | Path, runs: Iterable[Run], key: str) -> dict[int | str, int]:
-    """How many of the finished ``runs`` recorded each value of ``key`` in their ``machine`` (``run.json``):
-    ``torch_threads`` or ``cpu_capability`` (:func:`synthcal.utils.machine.machine_record`).
+def recorded_machine(results: str | Path, runs: Iterable[Run], *keys: str) -> dict[str, dict[int | str, int]]:
+    """How many of the finished ``runs`` recorded each value of each of ``keys`` in their ``machine``
+    (``run.json``, read once per run): ``torch_threads``, ``cpu_capability``
+    (:func:`synthcal.utils.machine.machine_record`).
 
-    Runs without it (NumPy estimators, records older than the field) are not counted.
+    Runs without a key (NumPy estimators, records older than the field) are not counted for it.
     """
-    counts: dict[int | str, int] = {}
+    counts: dict[str, dict[int | str, int]] = {key: {} for key in keys}
     for run in runs:
         path = run_folder(results, run) / "run.json"
         record = read_record(path) if path.is_file() else None
-        value = (record or {}).get("machine", {}).get(key)
-        if isinstance(value, (int, str)) and not isinstance(value, bool):
-            counts[value] = counts.get(value, 0) + 1
+        machine = (record or {}).get("machine") or {}
+        for key in keys:
+            value = machine.get(key)
+            if isinstance(value, (int, str)) and not isinstance(value, bool):
+                counts[key][value] = counts[key].get(value, 0) + 1
     return counts
 
 

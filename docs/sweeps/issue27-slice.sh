@@ -460,7 +460,10 @@ iou_cell intersection-1 dice
 # ---- 2026-12-04 (forty-seventh session): step 28 done: intersection-5 in 55 min, intersection-1 with Dice in 43 min
 #      (archive docs/results/runs_fortyseventh_iou.csv, both cells) ----
 # 29. (forty-seventh and forty-eighth sessions, the same clone, folder and cache as step 28) intersection-2 with Dice,
-#     the fits ranked by validation `iou` (pairs with runs_eleventh.csv)
+#     the fits ranked by validation `iou` (pairs with runs_eleventh.csv), then intersection-3 with Dice (pairs with
+#     runs_twentyeighth.csv), chained
 iou_cell intersection-2 dice
+iou_cell intersection-3 dice
 # ---- 2026-12-04 (forty-eighth session): intersection-2 done (seven runs in the forty-seventh session, the last
-#      three in 19 min; archive docs/results/runs_fortyseventh_iou.csv, appended) ----
+#      three in 19 min; archive docs/results/runs_fortyseventh_iou.csv, appended); intersection-3 in 46 min (the same
+#      archive) ----

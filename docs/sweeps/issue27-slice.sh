@@ -460,10 +460,11 @@ iou_cell intersection-1 dice
 # ---- 2026-12-04 (forty-seventh session): step 28 done: intersection-5 in 55 min, intersection-1 with Dice in 43 min
 #      (archive docs/results/runs_fortyseventh_iou.csv, both cells) ----
 # 29. (forty-seventh and forty-eighth sessions, the same clone, folder and cache as step 28) intersection-2 with Dice,
-#     the fits ranked by validation `iou` (pairs with runs_eleventh.csv), then intersection-3 with Dice (pairs with
-#     runs_twentyeighth.csv), chained
+#     the fits ranked by validation `iou` (pairs with runs_eleventh.csv), then intersections 3 and 4 with Dice (pair
+#     with runs_twentyeighth.csv), chained
 iou_cell intersection-2 dice
 iou_cell intersection-3 dice
+iou_cell intersection-4 dice
 # ---- 2026-12-04 (forty-eighth session): intersection-2 done (seven runs in the forty-seventh session, the last
-#      three in 19 min; archive docs/results/runs_fortyseventh_iou.csv, appended); intersection-3 in 46 min (the same
-#      archive) ----
+#      three in 19 min; archive docs/results/runs_fortyseventh_iou.csv, appended); intersection-3 in 46 min,
+#      intersection-4 in 42 min (the same archive) ----

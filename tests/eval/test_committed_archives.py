@@ -180,6 +180,37 @@ def test_each_paired_table_is_what_its_script_prints(name: str, section: str):
     assert "\n".join(lines) in report_section(section), f"{REPORT.name}, {section}: not the table `paired_table.py {name}` prints"
 
 
+SELECTION_TABLE = sweep_script("selection_table")
+
+
+def test_the_selection_table_is_what_its_script_prints():
+    """reproduction.md's summary of the selection score (proposed − sha2020 ranked by `L_warp` and by `iou`, and the
+    shift) is docs/sweeps/selection_table.py's output today, its closing sentence over the cells included."""
+    lines = SELECTION_TABLE.lines()
+    assert len(lines) > 4, "selection_table.py printed no rows"
+    section = report_section("## Does the selection score decide a verdict?")
+    assert "\n".join(lines[:-2]) in section, f"{REPORT.name}: not the table `selection_table.py` prints"
+    assert " ".join(lines[-1].split()) in " ".join(section.split()), f"{REPORT.name}: not the sentence it prints"
+
+
+def test_the_selection_table_refuses_a_cell_without_both_models_on_every_seed():
+    """A cell the archive lacks, or holds for one model only, is named in an error instead of read as a gap."""
+    with pytest.raises(ValueError, match=r"runs_twentyfourth_iou\.csv: intersection-5 dice"):
+        SELECTION_TABLE.gaps("runs_twentyfourth_iou.csv", "intersection-5", "dice", "iou")
+
+
+def test_the_selection_table_gap_is_the_paired_report_difference():
+    """The script's per-seed gap, averaged, is the difference `synthcal table --layout report` prints for the cell
+    (computed there by another path: the report's pairing of each run with sha2020's on its seed)."""
+    dataset, loss, _, archive = SELECTION_TABLE.CELLS[0]
+    report = synthcal.report(ROOT / "docs" / "results" / archive, metric="iou")
+    cell = report[(report["dataset"] == dataset) & (report["loss"] == loss) & (report["model"] == "proposed")
+                  & (report["training"] == "step-by-step")]
+    assert len(cell) == 1
+    gap = SELECTION_TABLE.gaps(archive, dataset, loss, "iou")
+    assert gap.mean() == pytest.approx(cell["difference"].iloc[0], abs=1e-9)
+
+
 def _reading(cell: str) -> tuple[float, float, float]:
     """``−0.81 [−1.25, −0.37]`` → the difference and its interval's bounds."""
     mean, bounds = cell.split(" [")

@@ -468,3 +468,9 @@ iou_cell intersection-4 dice
 # ---- 2026-12-04 (forty-eighth session): intersection-2 done (seven runs in the forty-seventh session, the last
 #      three in 19 min; archive docs/results/runs_fortyseventh_iou.csv, appended); intersection-3 in 46 min,
 #      intersection-4 in 42 min (the same archive) ----
+# 30. (forty-ninth session, a reset machine: a clone of main 2c039bd, whose training code is 0c0556e's, at
+#     /work/sweep29/code; intersection-5's store made with it, a fresh Siamese cache) step 29's last cell,
+#     intersection-5 with Dice (pairs with runs_twentyeighth.csv)
+iou_cell intersection-5 dice
+# ---- 2026-12-04 (forty-ninth session): done in 40 min (archive docs/results/runs_fortyseventh_iou.csv, appended);
+#      the selection score is measured on all five intersections with Top-MSE and Dice ----

@@ -36,6 +36,7 @@ CELLS = [
     ("intersection-2", "dice", "runs_eleventh.csv", "runs_fortyseventh_iou.csv"),
     ("intersection-3", "dice", "runs_twentyeighth.csv", "runs_fortyseventh_iou.csv"),
     ("intersection-4", "dice", "runs_twentyeighth.csv", "runs_fortyseventh_iou.csv"),
+    ("intersection-5", "dice", "runs_twentyeighth.csv", "runs_fortyseventh_iou.csv"),
 ]
 LOSSES = {"top-mse": "Top-MSE", "dice": "Dice"}
 MODELS = ("proposed", "sha2020")

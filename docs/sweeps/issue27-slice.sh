@@ -474,3 +474,9 @@ iou_cell intersection-4 dice
 iou_cell intersection-5 dice
 # ---- 2026-12-04 (forty-ninth session): done in 40 min (archive docs/results/runs_fortyseventh_iou.csv, appended);
 #      the selection score is measured on all five intersections with Top-MSE and Dice ----
+# 31. (forty-ninth session, chained after step 30 on the same machine: the frozen clone e8eb178 made again at
+#     /work/sweep29/frozen — OpenCV 5.1.0, which leaves true-map runs as they were —, intersection-1's store made with
+#     it in /work/sweep29/fz, results folder results/) the matching table on intersection-1, Dice step by step: the
+#     proposed model with MSE matching (pairs with runs_tenth.csv's Top-MSE-matching Dice runs: --against ...
+#     --paired matching_score=top-mse matching_score=mse; paper +1.79)
+step $S bench --datasets intersection-1 --estimator proposed --training step-by-step --loss dice --matching mse $SEL $COMMON --workers 2

@@ -480,3 +480,5 @@ iou_cell intersection-5 dice
 #     proposed model with MSE matching (pairs with runs_tenth.csv's Top-MSE-matching Dice runs: --against ...
 #     --paired matching_score=top-mse matching_score=mse; paper +1.79)
 step $S bench --datasets intersection-1 --estimator proposed --training step-by-step --loss dice --matching mse $SEL $COMMON --workers 2
+# ---- 2026-12-04 (forty-ninth session): step 31 done in 34 min (5 runs, 600-942 s each; archive
+#      docs/results/runs_fortyninth.csv) ----

@@ -93,6 +93,7 @@ TABLES = {
         ("runs_eleventh.csv", "runs_fortyfirst.csv"),
         ("runs_twelfth.csv", "runs_fortyfirst.csv"),
         ("runs_twentyninth.csv", "runs_fortysecond.csv"),
+        ("runs_tenth.csv", "runs_fortyninth.csv"),
     ]),
 }
 

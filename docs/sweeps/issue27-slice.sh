@@ -482,3 +482,8 @@ iou_cell intersection-5 dice
 step $S bench --datasets intersection-1 --estimator proposed --training step-by-step --loss dice --matching mse $SEL $COMMON --workers 2
 # ---- 2026-12-04 (forty-ninth session): step 31 done in 34 min (5 runs, 600-942 s each; archive
 #      docs/results/runs_fortyninth.csv) ----
+# 32. (forty-ninth session, started at its stop in the same folder as step 31, /work/sweep29/run49c.sh) the matching
+#     table on intersection-1, Top-Dice end to end (the paper's largest matching difference left there, +2.08): the
+#     proposed model with MSE matching (pairs with runs_twentyfirst.csv's end-to-end Top-Dice runs: --against ...
+#     --paired matching_score=top-mse matching_score=mse); if the machine survives, its runs are in fz/results
+step $S bench --datasets intersection-1 --estimator proposed --training end-to-end --loss top-dice --matching mse $SEL $COMMON --workers 2

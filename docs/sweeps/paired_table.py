@@ -20,6 +20,7 @@ from functools import cache
 from pathlib import Path
 
 import pandas as pd
+from report_figures import interval, signed
 
 import synthcal
 from synthcal.eval.archive import read_archive
@@ -96,16 +97,6 @@ TABLES = {
         ("runs_tenth.csv", "runs_fortyninth.csv"),
     ]),
 }
-
-
-def signed(value: float) -> str:
-    """``+2.34`` / ``−3.05``: a difference as the report prints it (a true minus sign)."""
-    return f"{value:+.2f}".replace("-", "\u2212")
-
-
-def interval(mean: float, low: float, high: float) -> str:
-    """``−0.35 [−1.47, +0.78]``: a paired difference and its 95 % t interval."""
-    return f"{signed(mean)} [{signed(low)}, {signed(high)}]"
 
 
 def verdict(text: str) -> str:

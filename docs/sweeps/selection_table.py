@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from report_figures import interval
 
 from synthcal.eval.archive import read_archive
 from synthcal.eval.statistics import t_interval
@@ -65,15 +66,10 @@ def gaps(archive: str, dataset: str, loss: str, metric: str) -> pd.Series:
     return values["proposed"] - values["sha2020"]
 
 
-def signed(value: float) -> str:
-    """``+2.34`` / ``−3.05``: a difference as the report prints it (a true minus sign)."""
-    return f"{value:+.2f}".replace("-", "\u2212")
-
-
 def reading(differences: pd.Series) -> str:
     """``−0.35 [−1.47, +0.78]``: the mean of per-seed differences and its 95 % t interval."""
     low, high, _ = t_interval(differences.to_numpy())
-    return f"{signed(float(differences.mean()))} [{signed(low)}, {signed(high)}]"
+    return interval(float(differences.mean()), low, high)
 
 
 def row(dataset: str, loss: str, by_loss: str, by_iou: str, metric: str) -> tuple[str, str, str, np.ndarray]:

@@ -12,8 +12,15 @@ REPORT = ROOT / "docs" / "reproduction.md"
 
 
 def sweep_script(name: str) -> ModuleType:
-    """``docs/sweeps/<name>.py`` imported as a module (the scripts are run by hand, not installed)."""
-    path = ROOT / "docs" / "sweeps" / f"{name}.py"
+    """``docs/sweeps/<name>.py`` imported as a module (the scripts are run by hand, not installed).
+
+    Their folder goes on ``sys.path`` as it does when a script is run, so a script finds the helpers beside it
+    (``report_figures``).
+    """
+    folder = ROOT / "docs" / "sweeps"
+    if str(folder) not in sys.path:
+        sys.path.append(str(folder))
+    path = folder / f"{name}.py"
     spec = importlib.util.spec_from_file_location(f"sweeps_{name}", path)
     assert spec is not None and spec.loader is not None, path
     module = importlib.util.module_from_spec(spec)

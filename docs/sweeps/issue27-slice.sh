@@ -487,3 +487,12 @@ step $S bench --datasets intersection-1 --estimator proposed --training step-by-
 #     proposed model with MSE matching (pairs with runs_twentyfirst.csv's end-to-end Top-Dice runs: --against ...
 #     --paired matching_score=top-mse matching_score=mse); if the machine survives, its runs are in fz/results
 step $S bench --datasets intersection-1 --estimator proposed --training end-to-end --loss top-dice --matching mse $SEL $COMMON --workers 2
+# ---- 2026-12-04 (fiftieth session): the machine kept /work/sweep29, but step 32's runs had died with the
+#      forty-ninth session before any finished; rerun from 21:59 (same script, same folder) ----
+# 33-35. (fiftieth session, chained behind step 32 in the same folder, /work/sweep29/run50.sh; intersection-2's store
+#     made with the frozen clone in fz/data) the matching table on intersection-2, the proposed model with MSE
+#     matching: Dice step by step (pairs with runs_eleventh.csv; paper +1.19), Top-MSE end to end (pairs with
+#     runs_tenth.csv; paper +1.09), Top-Dice step by step (pairs with runs_eleventh.csv)
+step $S bench --datasets intersection-2 --estimator proposed --training step-by-step --loss dice --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator proposed --training end-to-end --loss top-mse --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator proposed --training step-by-step --loss top-dice --matching mse $SEL $COMMON --workers 2

@@ -95,6 +95,7 @@ TABLES = {
         ("runs_twelfth.csv", "runs_fortyfirst.csv"),
         ("runs_twentyninth.csv", "runs_fortysecond.csv"),
         ("runs_tenth.csv", "runs_fortyninth.csv"),
+        ("runs_twentyfirst.csv", "runs_fiftieth.csv"),
     ]),
 }
 

@@ -498,3 +498,5 @@ step $S bench --datasets intersection-2 --estimator proposed --training end-to-e
 step $S bench --datasets intersection-2 --estimator proposed --training step-by-step --loss top-dice --matching mse $SEL $COMMON --workers 2
 # ---- 2026-12-04 (fiftieth session): step 32 done in 28 min (5 runs, 463-764 s each; archive
 #      docs/results/runs_fiftieth.csv) ----
+# ---- 2026-12-04 (fiftieth session): step 33 (intersection-2, Dice step by step) done in 28 min (5 runs, 482-668 s
+#      each; appended to docs/results/runs_fiftieth.csv) ----

@@ -96,6 +96,7 @@ TABLES = {
         ("runs_twentyninth.csv", "runs_fortysecond.csv"),
         ("runs_tenth.csv", "runs_fortyninth.csv"),
         ("runs_twentyfirst.csv", "runs_fiftieth.csv"),
+        ("runs_eleventh.csv", "runs_fiftieth.csv"),
     ]),
 }
 

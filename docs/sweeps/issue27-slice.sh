@@ -500,3 +500,14 @@ step $S bench --datasets intersection-2 --estimator proposed --training step-by-
 #      docs/results/runs_fiftieth.csv) ----
 # ---- 2026-12-04 (fiftieth session): step 33 (intersection-2, Dice step by step) done in 28 min (5 runs, 482-668 s
 #      each; appended to docs/results/runs_fiftieth.csv) ----
+# 36-40. (fiftieth session, chained behind steps 33-35 in the same folder, /work/sweep29/run50b.sh, left running at its
+#     stop: runs that finish before the machine is reset stay in fz/results and bench reuses them) the matching
+#     table's other true-map CPU cells, the proposed model with MSE matching: intersection-1 Top-Dice step by step
+#     (pairs with runs_eighteenth.csv; paper +0.92), intersection-1 end to end with Dice (runs_twentyfirst.csv; +0.80),
+#     Top-MSE (runs_seventeenth.csv; +0.31) and MSE (runs_sixteenth.csv; −0.04), intersection-2 end to end with MSE
+#     (runs_sixteenth.csv; +0.22)
+step $S bench --datasets intersection-1 --estimator proposed --training step-by-step --loss top-dice --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 --estimator proposed --training end-to-end --loss dice --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 --estimator proposed --training end-to-end --loss top-mse --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2

@@ -511,3 +511,5 @@ step $S bench --datasets intersection-1 --estimator proposed --training end-to-e
 step $S bench --datasets intersection-1 --estimator proposed --training end-to-end --loss top-mse --matching mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-1 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2
 step $S bench --datasets intersection-2 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2
+# ---- 2026-12-04 (fiftieth session): step 34 (intersection-2, Top-MSE end to end) done in 23 min (5 runs, 439-503 s
+#      each, behind step 33 in the same cache; appended to docs/results/runs_fiftieth.csv) ----

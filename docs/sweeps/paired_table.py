@@ -97,6 +97,7 @@ TABLES = {
         ("runs_tenth.csv", "runs_fortyninth.csv"),
         ("runs_twentyfirst.csv", "runs_fiftieth.csv"),
         ("runs_eleventh.csv", "runs_fiftieth.csv"),
+        ("runs_tenth.csv", "runs_fiftieth.csv"),
     ]),
 }
 

@@ -513,3 +513,5 @@ step $S bench --datasets intersection-1 --estimator proposed --training end-to-e
 step $S bench --datasets intersection-2 --estimator proposed --training end-to-end --loss mse --matching mse $SEL $COMMON --workers 2
 # ---- 2026-12-04 (fiftieth session): step 34 (intersection-2, Top-MSE end to end) done in 23 min (5 runs, 439-503 s
 #      each, behind step 33 in the same cache; appended to docs/results/runs_fiftieth.csv) ----
+# ---- 2026-12-04 (fiftieth session): step 35 (intersection-2, Top-Dice step by step) done in 21 min (5 runs, 369-543 s
+#      each; appended to docs/results/runs_fiftieth.csv) ----

@@ -515,3 +515,5 @@ step $S bench --datasets intersection-2 --estimator proposed --training end-to-e
 #      each, behind step 33 in the same cache; appended to docs/results/runs_fiftieth.csv) ----
 # ---- 2026-12-04 (fiftieth session): step 35 (intersection-2, Top-Dice step by step) done in 21 min (5 runs, 369-543 s
 #      each; appended to docs/results/runs_fiftieth.csv) ----
+# ---- 2026-12-04 (fiftieth session): step 36 (intersection-1, Top-Dice step by step) done in 24 min (5 runs,
+#      364-688 s each; appended to docs/results/runs_fiftieth.csv); steps 37-40 still running at the stop ----

@@ -98,6 +98,7 @@ TABLES = {
         ("runs_twentyfirst.csv", "runs_fiftieth.csv"),
         ("runs_eleventh.csv", "runs_fiftieth.csv"),
         ("runs_tenth.csv", "runs_fiftieth.csv"),
+        ("runs_eighteenth.csv", "runs_fiftieth.csv"),
     ]),
 }
 

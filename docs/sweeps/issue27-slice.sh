@@ -517,3 +517,8 @@ step $S bench --datasets intersection-2 --estimator proposed --training end-to-e
 #      each; appended to docs/results/runs_fiftieth.csv) ----
 # ---- 2026-12-04 (fiftieth session): step 36 (intersection-1, Top-Dice step by step) done in 24 min (5 runs,
 #      364-688 s each; appended to docs/results/runs_fiftieth.csv); steps 37-40 still running at the stop ----
+# ---- 2026-12-05 (fifty-first session): the machine kept /work/sweep29; run50b.sh had died with the fiftieth session
+#      after step 37's seeds 0 and 1; rerun from 00:24 (same script, same folder: bench reused step 36's runs and those
+#      two seeds) ----
+# ---- 2026-12-05 (fifty-first session): step 37 (intersection-1, Dice end to end) done, seeds 2-4 in 15 min (5 runs,
+#      436-692 s each; appended to docs/results/runs_fiftieth.csv) ----

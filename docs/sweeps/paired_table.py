@@ -80,6 +80,8 @@ TABLES = {
         ("runs_thirtyeighth.csv", "runs_thirtyseventh.csv"),
         ("runs_fortieth.csv", "runs_fortyfirst.csv"),
         ("runs_fortysecond.csv", "runs_thirtyninth.csv"),
+        ("runs_fiftieth.csv", None),
+        ("runs_fiftieth.csv", "runs_fortyninth.csv"),
     ]),
     # (Top-MSE-matching archive, MSE-matching archive or None).
     "matching": PairedTable("matching_score=top-mse", "matching_score=mse", "archives, Top-MSE − MSE matching", [

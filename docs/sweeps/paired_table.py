@@ -1,14 +1,15 @@
 """The report's tables of paired differences across committed archives (reproduction.md).
 
-Two tables, each a list of archive pairs: ``training`` ("End to end against step by step": end to end − step by step
-of the same model, seed, split and settings) and ``matching`` ("The matching score": the proposed model with Top-MSE
-matching − with MSE matching). A pair names the archive of side A's runs and the archive of side B's (None: the
+Four tables, each a list of archive pairs: ``training`` ("End to end against step by step": end to end − step by step
+of the same model, seed, split and settings), ``matching`` ("The matching score": the proposed model with Top-MSE
+matching − with MSE matching), ``top-mse-loss`` and ``top-dice-loss`` ("The topological loss against its
+conventional version", under MSE matching: Top-MSE − MSE and Top-Dice − Dice). A pair names the archive of side A's runs and the archive of side B's (None: the
 same archive holds both); ``synthcal table docs/results/A --against docs/results/B --paired A_KEY B_KEY [--metric
 iou_weighted]`` prints its cells. This script prints a table's cells of every pair as one Markdown table, a row per
 cell with both readings. The report's tables are this script's output (tests/eval/test_committed_archives.py
 checks them), so a new pair goes in the list below, then the script's output replaces the table.
 
-Run it from anywhere: ``python docs/sweeps/paired_table.py training|matching`` (it finds ``docs/results`` beside
+Run it from anywhere: ``python docs/sweeps/paired_table.py training|matching|top-mse-loss|top-dice-loss`` (it finds ``docs/results`` beside
 itself).
 """
 
@@ -43,11 +44,17 @@ class PairedTable:
     b: str
     title: str  # the archives column's header
     pairs: list[tuple[str, str | None]]
+    only: tuple[str, str] | None = None  # (key, value): the cells kept, when a pair's archives hold others too
 
     @property
     def key(self) -> str:
-        """The key the sides differ in (``training``, ``matching_score``)."""
+        """The key the sides differ in (``training``, ``matching_score``, ``loss``)."""
         return self.a.split("=")[0]
+
+    @property
+    def other(self) -> str:
+        """The key besides dataset, loss and model that tells a table's rows apart, sorted on after the loss."""
+        return "matching_score" if self.key == "training" else "training"
 
 
 TABLES = {
@@ -102,6 +109,21 @@ TABLES = {
         ("runs_tenth.csv", "runs_fiftieth.csv"),
         ("runs_eighteenth.csv", "runs_fiftieth.csv"),
     ]),
+    # (Top-MSE archive, MSE archive or None): the proposed model under MSE matching; the Top-MSE-matching cells are
+    # the report's hand-kept tables above them.
+    "top-mse-loss": PairedTable("loss=top-mse", "loss=mse", "archives, Top-MSE − MSE", [
+        ("runs_twentyfifth_worldcup.csv", None),
+        ("runs_thirtyseventh.csv", "runs_fortyfirst.csv"),
+        ("runs_thirtyeighth.csv", "runs_fortieth.csv"),
+    ], only=("matching_score", "mse")),
+    # (Top-Dice archive, Dice archive or None), as above.
+    "top-dice-loss": PairedTable("loss=top-dice", "loss=dice", "archives, Top-Dice − Dice", [
+        ("runs_twentyfifth_worldcup.csv", None),
+        ("runs_thirtyninth.csv", "runs_twentyeighth.csv"),
+        ("runs_fortysecond.csv", "runs_thirtysixth.csv"),
+        ("runs_fiftieth.csv", None),
+        ("runs_fiftieth.csv", "runs_fortyninth.csv"),
+    ], only=("matching_score", "mse")),
 }
 
 
@@ -136,13 +158,19 @@ def pair_cells(table: PairedTable, archive: str, against: str | None) -> pd.Data
         for metric in ("iou", "iou_weighted")
     ]
     cells = readings[0].join(readings[1], how="inner").reset_index()
+    if table.only is not None:
+        key, value = table.only
+        cells = cells[cells[key] == value]
     return cells.assign(archives=provenance(archive, against))
 
 
 def label(cell: pd.Series, table: PairedTable, several_matchings: bool) -> str:
     """``intersection-3, Dice, proposed`` / ```worldcup2014`, Dice (matching MSE), proposed`` /
-    ``intersection-3, Dice, end to end, proposed``: what a row compares, the paired key left out."""
+    ``intersection-3, Dice, end to end, proposed`` / ``intersection-3, end to end, proposed``: what a row compares,
+    the paired key left out (and the loss tables' one matching score)."""
     dataset = cell["dataset"] if cell["dataset"].startswith("intersection-") else f"`{cell['dataset']}`"
+    if table.key == "loss":
+        return f"{dataset}, {TRAININGS[cell['training']]}, {cell['model']}"
     loss = LOSSES[cell["loss"]]
     if table.key == "training":
         matching = f" (matching {LOSSES[cell['matching_score']]})" if several_matchings else ""
@@ -154,10 +182,10 @@ def lines(name: str) -> list[str]:
     """A report table as Markdown lines (its header first): rows sorted by dataset, the other keys, model."""
     table = TABLES[name]
     cells = pd.concat([pair_cells(table, archive, against) for archive, against in table.pairs], ignore_index=True)
-    other = "training" if table.key == "matching_score" else "matching_score"
+    other = table.other
     orders = {"dataset": DATASETS, "loss": list(LOSSES), "matching_score": list(LOSSES), "training": list(TRAININGS),
               "model": MODELS}
-    sort_keys = ["dataset", "loss", other, "model"]
+    sort_keys = [key for key in ("dataset", "loss", other, "model") if key != table.key]
     ranks = pd.DataFrame({key: cells[key].map(orders[key].index) for key in sort_keys})
     cells = cells.loc[ranks.sort_values(sort_keys, kind="stable").index]
     several = cells.groupby(["dataset", "model"])[other].transform("nunique") > 1

@@ -170,10 +170,12 @@ def _number(text: str) -> float:
 
 
 @pytest.mark.parametrize(("name", "section"), [("training", "## End to end against step by step"),
-                                             ("matching", "## The matching score")])
+                                             ("matching", "## The matching score"),
+                                             ("top-mse-loss", "## The topological loss against"),
+                                             ("top-dice-loss", "## The topological loss against")])
 def test_each_paired_table_is_what_its_script_prints(name: str, section: str):
-    """reproduction.md's tables of end to end − step by step and of Top-MSE − MSE matching are
-    docs/sweeps/paired_table.py's output today: a pair added to the script, an archive rewritten or a verdict rule
+    """reproduction.md's tables of end to end − step by step, of Top-MSE − MSE matching and of each topological loss
+    against its conventional version under MSE matching are docs/sweeps/paired_table.py's output today: a pair added to the script, an archive rewritten or a verdict rule
     changed without reprinting the table fails here."""
     lines = PAIRED_TABLES.lines(name)
     assert len(lines) > 2, f"paired_table.py {name} printed no rows"
@@ -219,6 +221,28 @@ def _reading(cell: str) -> tuple[float, float, float]:
 
 
 _WORDS = ["none", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten"]
+
+
+def test_the_mse_matching_loss_counts_count_its_tables():
+    """reproduction.md's counts of the topological loss under MSE matching ("Under MSE matching": cells, above by an
+    interval that excludes 0, below on the mean, below by such an interval) against the rows of its two tables."""
+    section = report_section("## The topological loss against")
+    rows = [row for name in ("top-mse-loss", "top-dice-loss")
+            for row in table_rows("\n".join(PAIRED_TABLES.lines(name)))]
+    prose = " ".join(section.split())
+    readings = {metric: [_reading(row[column]) for row in rows] for metric, column in (("iou", 3), ("iou_weighted", 5))}
+    above = sum(low > 0 for metric in readings for _, low, _ in readings[metric])
+    assert above < len(_WORDS), f"{above} cells above: name the number in words here as the prose does"
+    assert f"Of these {len(rows)} cells the topological loss is above its conventional version by an interval that " \
+           f"excludes 0 in {_WORDS[above]}, under either reading" in prose
+    below = {metric: sum(high < 0 for _, _, high in readings[metric]) for metric in readings}
+    assert f"its mean is below in {sum(mean < 0 for mean, _, _ in readings['iou'])} under `iou`" in prose
+    assert f"below by an interval that excludes 0 in {below['iou']} (`iou_weighted`: {below['iou_weighted']})" in prose
+    for name, pair in (("top-dice-loss", "Top-Dice − Dice averages"), ("top-mse-loss", "Top-MSE − MSE")):
+        cells = table_rows("\n".join(PAIRED_TABLES.lines(name)))
+        mean = _signed(sum(_reading(row[3])[0] for row in cells) / len(cells))
+        paper = _signed(sum(_number(row[2]) for row in cells) / len(cells))
+        assert f"{pair} {mean} `iou` over its {len(cells)}" in prose and f"(the paper {paper})" in prose, name
 
 
 def test_the_end_to_end_counts_count_the_end_to_end_table():

@@ -522,3 +522,5 @@ step $S bench --datasets intersection-2 --estimator proposed --training end-to-e
 #      two seeds) ----
 # ---- 2026-12-05 (fifty-first session): step 37 (intersection-1, Dice end to end) done, seeds 2-4 in 15 min (5 runs,
 #      436-692 s each; appended to docs/results/runs_fiftieth.csv) ----
+# ---- 2026-12-05 (fifty-first session): step 38 (intersection-1, Top-MSE end to end) done in 25 min (5 runs,
+#      424-544 s each; appended to docs/results/runs_fiftieth.csv) ----

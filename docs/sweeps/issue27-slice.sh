@@ -526,3 +526,5 @@ step $S bench --datasets intersection-2 --estimator proposed --training end-to-e
 #      424-544 s each; appended to docs/results/runs_fiftieth.csv) ----
 # ---- 2026-12-05 (fifty-first session): step 39 (intersection-1, MSE end to end) done in 23 min (5 runs,
 #      417-509 s each; appended to docs/results/runs_fiftieth.csv) ----
+# ---- 2026-12-05 (fifty-first session): step 40 (intersection-2, MSE end to end) done in 26 min (5 runs,
+#      420-637 s each; appended to docs/results/runs_fiftieth.csv) ----

@@ -175,8 +175,8 @@ def _number(text: str) -> float:
                                              ("top-dice-loss", "## The topological loss against")])
 def test_each_paired_table_is_what_its_script_prints(name: str, section: str):
     """reproduction.md's tables of end to end − step by step, of Top-MSE − MSE matching and of each topological loss
-    against its conventional version under MSE matching are docs/sweeps/paired_table.py's output today: a pair added to the script, an archive rewritten or a verdict rule
-    changed without reprinting the table fails here."""
+    against its conventional version under MSE matching are docs/sweeps/paired_table.py's output today: a pair added
+    to the script, an archive rewritten or a verdict rule changed without reprinting the table fails here."""
     lines = PAIRED_TABLES.lines(name)
     assert len(lines) > 2, f"paired_table.py {name} printed no rows"
     assert "\n".join(lines) in report_section(section), f"{REPORT.name}, {section}: not the table `paired_table.py {name}` prints"
@@ -231,7 +231,7 @@ def test_the_mse_matching_loss_counts_count_its_tables():
             for row in table_rows("\n".join(PAIRED_TABLES.lines(name)))]
     prose = " ".join(section.split())
     readings = {metric: [_reading(row[column]) for row in rows] for metric, column in (("iou", 3), ("iou_weighted", 5))}
-    above = sum(low > 0 for metric in readings for _, low, _ in readings[metric])
+    above = sum(low > 0 for metric in readings for _, low, _ in readings[metric])  # over both readings
     assert above < len(_WORDS), f"{above} cells above: name the number in words here as the prose does"
     assert f"Of these {len(rows)} cells the topological loss is above its conventional version by an interval that " \
            f"excludes 0 in {_WORDS[above]}, under either reading" in prose

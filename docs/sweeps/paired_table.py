@@ -1,13 +1,14 @@
 """The report's tables of paired differences across committed archives (reproduction.md).
 
-Four tables, each a list of archive pairs: ``training`` ("End to end against step by step": end to end − step by step
-of the same model, seed, split and settings), ``matching`` ("The matching score": the proposed model with Top-MSE
-matching − with MSE matching), ``top-mse-loss`` and ``top-dice-loss`` ("The topological loss against its
+Four tables, each a list of archive pairs: ``training`` ("End to end against step by step": end to end − step by
+step of the same model, seed, split and settings), ``matching`` ("The matching score": the proposed model with
+Top-MSE matching − with MSE matching), ``top-mse-loss`` and ``top-dice-loss`` ("The topological loss against its
 conventional version", under MSE matching: Top-MSE − MSE and Top-Dice − Dice). A pair names the archive of side A's
 runs and the archive of side B's (None: the same archive holds both); ``synthcal table docs/results/A --against
-docs/results/B --paired A_KEY B_KEY [--metric iou_weighted]`` prints its cells. This script prints a table's cells of every pair as one Markdown table, a row per
-cell with both readings. The report's tables are this script's output (tests/eval/test_committed_archives.py
-checks them), so a new pair goes in the list below, then the script's output replaces the table.
+docs/results/B --paired A_KEY B_KEY [--metric iou_weighted]`` prints its cells. This script prints a table's cells
+of every pair as one Markdown table, a row per cell with both readings. The report's tables are this script's output
+(tests/eval/test_committed_archives.py checks them), so a new pair goes in the list below, then the script's output
+replaces the table.
 
 Run it from anywhere: ``python docs/sweeps/paired_table.py training|matching|top-mse-loss|top-dice-loss`` (it finds
 ``docs/results`` beside itself).

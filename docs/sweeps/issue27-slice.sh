@@ -528,3 +528,12 @@ step $S bench --datasets intersection-2 --estimator proposed --training end-to-e
 #      417-509 s each; appended to docs/results/runs_fiftieth.csv) ----
 # ---- 2026-12-05 (fifty-first session): step 40 (intersection-2, MSE end to end) done in 26 min (5 runs,
 #      420-637 s each; appended to docs/results/runs_fiftieth.csv) ----
+# 41-42. (fifty-first session, chained behind steps 37-40 in the same folder, /work/sweep29/run51.sh) the matching
+#     table's step-by-step MSE cells of intersections 1 and 2: no Top-MSE-matching runs are archived there (lost with
+#     the sixth session's folder), so both matchings run here
+step $S bench --datasets intersection-1 --estimator proposed --training step-by-step --loss mse --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-1 --estimator proposed --training step-by-step --loss mse --matching top-mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator proposed --training step-by-step --loss mse --matching mse $SEL $COMMON --workers 2
+step $S bench --datasets intersection-2 --estimator proposed --training step-by-step --loss mse --matching top-mse $SEL $COMMON --workers 2
+# ---- 2026-12-05 (fifty-first session): step 41 (intersection-1) done in 41 min (10 runs, 297-578 s each; archive
+#      docs/results/runs_fiftyfirst.csv); step 42 (intersection-2) still running at the stop ----

@@ -227,11 +227,11 @@ def test_the_mse_matching_loss_counts_count_its_tables():
     """reproduction.md's counts of the topological loss under MSE matching ("Under MSE matching": cells, above by an
     interval that excludes 0, below on the mean, below by such an interval) against the rows of its two tables."""
     section = report_section("## The topological loss against")
-    rows = [row for name in ("top-mse-loss", "top-dice-loss")
-            for row in table_rows("\n".join(PAIRED_TABLES.lines(name)))]
+    tables = {name: table_rows("\n".join(PAIRED_TABLES.lines(name))) for name in ("top-mse-loss", "top-dice-loss")}
+    rows = [row for cells in tables.values() for row in cells]
     prose = " ".join(section.split())
     readings = {metric: [_reading(row[column]) for row in rows] for metric, column in (("iou", 3), ("iou_weighted", 5))}
-    above = sum(low > 0 for metric in readings for _, low, _ in readings[metric])  # over both readings
+    above = sum(any(readings[metric][i][1] > 0 for metric in readings) for i in range(len(rows)))  # either reading
     assert above < len(_WORDS), f"{above} cells above: name the number in words here as the prose does"
     assert f"Of these {len(rows)} cells the topological loss is above its conventional version by an interval that " \
            f"excludes 0 in {_WORDS[above]}, under either reading" in prose
@@ -239,7 +239,7 @@ def test_the_mse_matching_loss_counts_count_its_tables():
     assert f"its mean is below in {sum(mean < 0 for mean, _, _ in readings['iou'])} under `iou`" in prose
     assert f"below by an interval that excludes 0 in {below['iou']} (`iou_weighted`: {below['iou_weighted']})" in prose
     for name, pair in (("top-dice-loss", "Top-Dice − Dice averages"), ("top-mse-loss", "Top-MSE − MSE")):
-        cells = table_rows("\n".join(PAIRED_TABLES.lines(name)))
+        cells = tables[name]
         mean = _signed(sum(_reading(row[3])[0] for row in cells) / len(cells))
         paper = _signed(sum(_number(row[2]) for row in cells) / len(cells))
         assert f"{pair} {mean} `iou` over its {len(cells)}" in prose and f"(the paper {paper})" in prose, name

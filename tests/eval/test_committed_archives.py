@@ -225,7 +225,8 @@ _WORDS = ["none", "one", "two", "three", "four", "five", "six", "seven", "eight"
 
 def test_the_mse_matching_loss_counts_count_its_tables():
     """reproduction.md's counts of the topological loss under MSE matching ("Under MSE matching": cells, above by an
-    interval that excludes 0, below on the mean, below by such an interval) against the rows of its two tables."""
+    interval that excludes 0, below on the mean, below by such an interval), and the count In brief and "Verdicts so
+    far" repeat, against the rows of its two tables."""
     section = report_section("## The topological loss against")
     tables = {name: table_rows("\n".join(PAIRED_TABLES.lines(name))) for name in ("top-mse-loss", "top-dice-loss")}
     rows = [row for cells in tables.values() for row in cells]
@@ -243,6 +244,12 @@ def test_the_mse_matching_loss_counts_count_its_tables():
         mean = _signed(sum(_reading(row[3])[0] for row in cells) / len(cells))
         paper = _signed(sum(_number(row[2]) for row in cells) / len(cells))
         assert f"{pair} {mean} `iou` over its {len(cells)}" in prose and f"(the paper {paper})" in prose, name
+    # the two summaries repeat the count of cells and of those above
+    brief = " ".join(report_section("## In brief").split())
+    assert f"under MSE matching {_WORDS[above]} of {len(rows)} cells above" in brief, "In brief counts other cells"
+    verdicts = " ".join(report_section("## Verdicts so far").split())
+    assert f"where {_WORDS[above]} of the proposed model's {len(rows)} archived cells is above" in verdicts, \
+        "Verdicts so far counts other cells"
 
 
 def test_the_end_to_end_counts_count_the_end_to_end_table():

@@ -537,3 +537,12 @@ step $S bench --datasets intersection-2 --estimator proposed --training step-by-
 step $S bench --datasets intersection-2 --estimator proposed --training step-by-step --loss mse --matching top-mse $SEL $COMMON --workers 2
 # ---- 2026-12-05 (fifty-first session): step 41 (intersection-1) done in 41 min (10 runs, 297-578 s each; archive
 #      docs/results/runs_fiftyfirst.csv); step 42 (intersection-2) still running at the stop ----
+# ---- 2026-12-05 (fifty-second session): step 42 (intersection-2) done: its MSE-matching half in 22 min before the
+#      fifty-first session's stop (5 runs, 402-626 s each), its Top-MSE half rerun from 03:01 in 27 min (5 runs,
+#      507-584 s each); both appended to docs/results/runs_fiftyfirst.csv ----
+# 43. (fifty-second session, chained behind step 42 in the same folder, /work/sweep29/run52.sh) intersection-2 end to
+#     end with Dice and Top-Dice under both matchings: the archived Top-MSE-matching side ran on a GPU
+#     (runs_twentyfirst_gpu.csv), so both sides run here, on one machine and one clone; Dice first
+for loss in dice top-dice; do for matching in mse top-mse; do
+  step $S bench --datasets intersection-2 --estimator proposed --training end-to-end --loss $loss --matching $matching $SEL $COMMON --workers 2
+done; done

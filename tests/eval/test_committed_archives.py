@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -254,8 +255,8 @@ def test_the_mse_matching_loss_counts_count_its_tables():
 
 def test_the_end_to_end_counts_count_the_end_to_end_table():
     """reproduction.md's "End to end against step by step" counts of the proposed model's cells — above by an
-    interval that excludes 0, below on the mean, below by such an interval — against the rows of its table (`iou`:
-    the cell, archives, paper, interval, verdict, ...)."""
+    interval that excludes 0, below on the mean, below by such an interval, the verdicts where the paper has end to end
+    above — against the rows of its table (`iou`: the cell, archives, paper, interval, verdict, ...)."""
     section = report_section("## End to end against step by step")
     rows = table_rows(section)
     proposed = [row for row in rows if row[0].endswith(", proposed")]
@@ -267,6 +268,14 @@ def test_the_end_to_end_counts_count_the_end_to_end_table():
     assert f"{opening} of the proposed model's {len(proposed)} paired cells" in prose
     assert f"its mean is below in {sum(mean < 0 for mean in means)}," in prose
     assert f"excludes 0 in {sum(high < 0 for high in highs)} under `iou`" in prose
+    lifted = [row for row in proposed if _number(row[2]) > 0]  # the paper's end to end above its step by step
+    verdicts = [Counter(row[column] for row in lifted) for column in (4, 6)]  # iou, iou_weighted
+    counts = [(tally["opposite"], tally["not reproduced"], tally["consistent (and with no difference)"])
+              for tally in verdicts]
+    assert all(sum(count) == len(lifted) for count in counts), f"a verdict the prose does not count: {verdicts}"
+    assert f"Of the {len(lifted)} cells where the paper has end to end lifting its model, ours are opposite in " \
+           f"{counts[0][0]}, not reproduced in {counts[0][1]} and hold both 0 and the paper's figure in {counts[0][2]} " \
+           f"under `iou` ({counts[1][0]}, {counts[1][1]} and {counts[1][2]} under `iou_weighted`)" in prose
     brief = " ".join(report_section("## In brief").split())
     assert f"of its {len(proposed)} cells paired by seed" in brief, "In brief counts another number of cells"
     assert f"below by one in {sum(high < 0 for high in highs)};" in brief, "In brief counts another number below"

@@ -8,7 +8,8 @@ runs and the archive of side B's (None: the same archive holds both); ``synthcal
 docs/results/B --paired A_KEY B_KEY [--metric iou_weighted]`` prints its cells. This script prints a table's cells
 of every pair as one Markdown table, a row per cell with both readings. The report's tables are this script's output
 (tests/eval/test_committed_archives.py checks them), so a new pair goes in the list below, then the script's output
-replaces the table.
+replaces the table. Where two pairs give the same cell, the later pair's is printed (a rerun of both sides on one
+clone, listed after the pair across devices it supersedes).
 
 Run it from anywhere: ``python docs/sweeps/paired_table.py training|matching|top-mse-loss|top-dice-loss`` (it finds
 ``docs/results`` beside itself).
@@ -189,6 +190,8 @@ def lines(name: str) -> list[str]:
     """A report table as Markdown lines (its header first): rows sorted by dataset, the other keys, model."""
     table = TABLES[name]
     cells = pd.concat([pair_cells(table, archive, against) for archive, against in table.pairs], ignore_index=True)
+    # a cell two pairs give is the later pair's: a rerun on one clone supersedes a pair across devices
+    cells = cells.drop_duplicates([key for key in CELL_KEYS if key != table.key], keep="last", ignore_index=True)
     other = table.other
     orders = {"dataset": DATASETS, "loss": list(LOSSES), "matching_score": list(LOSSES), "training": list(TRAININGS),
               "model": MODELS}

@@ -177,10 +177,13 @@ def _number(text: str) -> float:
 def test_each_paired_table_is_what_its_script_prints(name: str, section: str):
     """reproduction.md's tables of end to end − step by step, of Top-MSE − MSE matching and of each topological loss
     against its conventional version under MSE matching are docs/sweeps/paired_table.py's output today: a pair added
-    to the script, an archive rewritten or a verdict rule changed without reprinting the table fails here."""
+    to the script, an archive rewritten or a verdict rule changed without reprinting the table fails here; and no cell
+    is printed twice (two pairs giving it: the later one's is kept)."""
     lines = PAIRED_TABLES.lines(name)
     assert len(lines) > 2, f"paired_table.py {name} printed no rows"
     assert "\n".join(lines) in report_section(section), f"{REPORT.name}, {section}: not the table `paired_table.py {name}` prints"
+    labels = [row[0] for row in table_rows("\n".join(lines))]
+    assert len(set(labels)) == len(labels), f"paired_table.py {name}: a cell printed twice, from two pairs"
 
 
 SELECTION_TABLE = sweep_script("selection_table")

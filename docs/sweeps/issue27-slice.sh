@@ -546,3 +546,5 @@ step $S bench --datasets intersection-2 --estimator proposed --training step-by-
 for loss in dice top-dice; do for matching in mse top-mse; do
   step $S bench --datasets intersection-2 --estimator proposed --training end-to-end --loss $loss --matching $matching $SEL $COMMON --workers 2
 done; done
+# ---- 2026-12-05 (fifty-second session): step 43's Dice halves done, MSE matching in 25 min (5 runs, 441-597 s each),
+#      Top-MSE in 22 min (424-450 s each); archive docs/results/runs_fiftysecond.csv ----

@@ -548,3 +548,5 @@ for loss in dice top-dice; do for matching in mse top-mse; do
 done; done
 # ---- 2026-12-05 (fifty-second session): step 43's Dice halves done, MSE matching in 25 min (5 runs, 441-597 s each),
 #      Top-MSE in 22 min (424-450 s each); archive docs/results/runs_fiftysecond.csv ----
+# ---- 2026-12-05 (fifty-second session): step 43's Top-Dice half under MSE matching done in 29 min (5 runs, 471-649 s
+#      each; appended to docs/results/runs_fiftysecond.csv) ----

@@ -134,6 +134,7 @@ TABLES = {
         ("runs_fortysecond.csv", "runs_thirtysixth.csv"),
         ("runs_fiftieth.csv", None),
         ("runs_fiftieth.csv", "runs_fortyninth.csv"),
+        ("runs_fiftysecond.csv", None),
     ], only=("matching_score", "mse")),
 }
 

@@ -550,3 +550,5 @@ done; done
 #      Top-MSE in 22 min (424-450 s each); archive docs/results/runs_fiftysecond.csv ----
 # ---- 2026-12-05 (fifty-second session): step 43's Top-Dice half under MSE matching done in 29 min (5 runs, 471-649 s
 #      each; appended to docs/results/runs_fiftysecond.csv) ----
+# ---- 2026-12-05 (fifty-second session): step 43's Top-Dice half under Top-MSE matching done in 23 min (5 runs, 446-501
+#      s each; appended): step 43 complete ----

@@ -552,3 +552,9 @@ done; done
 #      each; appended to docs/results/runs_fiftysecond.csv) ----
 # ---- 2026-12-05 (fifty-second session): step 43's Top-Dice half under Top-MSE matching done in 23 min (5 runs, 446-501
 #      s each; appended): step 43 complete ----
+# 44. (fifty-second session, started at its stop, /work/sweep29/run53.sh) the matching table's last true-map cells on
+#     intersections 1 and 2, step by step with Top-MSE: the MSE-matching runs were lost with the sixth session's
+#     folder, so both matchings run here, on one clone
+for dataset in intersection-1 intersection-2; do for matching in mse top-mse; do
+  step $S bench --datasets $dataset --estimator proposed --training step-by-step --loss top-mse --matching $matching $SEL $COMMON --workers 2
+done; done

@@ -23,6 +23,7 @@ from scipy import stats
 from sweep_scripts import REPORT, ROOT, report_section, sweep_script, table_rows
 
 import synthcal
+from synthcal.eval.archive import read_archive
 from synthcal.eval.statistics import UNDECIDED, VERDICTS
 
 ARCHIVES = sorted((ROOT / "docs" / "results").glob("runs_*.csv"))
@@ -127,15 +128,18 @@ QUOTED_PAIRS = [
 ]
 
 
+_CELL_KEYS = [key for key in PAIRED_TABLES.CELL_KEYS if key != "training"]  # the keys a superseded cell shares
+
+
 @cache
 def _training_cells(archive: str, against: str | None) -> frozenset[tuple[str, ...]]:
-    """The cells (dataset, model, loss, matching score) one pair of the training table can pair: end to end in
-    ``archive``, step by step in ``against`` (or the same archive)."""
-    keys = ["dataset", "model", "loss", "matching_score"]
+    """The cells (paired_table.py's cell keys but the training) one pair of the training table can pair: end to end
+    in ``archive``, step by step in ``against`` (or the same archive). Read from the archives' rows, not paired, so
+    the check stays as cheap as the quoting it guards."""
 
     def cells(name: str, training: str) -> set[tuple[str, ...]]:
-        runs = pd.read_csv(ROOT / "docs" / "results" / name)
-        return set(runs.loc[runs["training"] == training, keys].itertuples(index=False, name=None))
+        runs = read_archive(ROOT / "docs" / "results" / name)
+        return set(runs.loc[runs["training"] == training, _CELL_KEYS].itertuples(index=False, name=None))
 
     return frozenset(cells(archive, "end-to-end") & cells(against or archive, "step-by-step"))
 
@@ -145,7 +149,7 @@ def _superseded(archive: str, against: str | None, cell: pd.Series) -> bool:
     if (archive, against) not in TRAINING_PAIRS:
         return False
     later = TRAINING_PAIRS[TRAINING_PAIRS.index((archive, against)) + 1:]
-    key = (cell["dataset"], cell["model"], cell["loss"], cell["matching_score"])
+    key = tuple(cell[_CELL_KEYS])
     return any(key in _training_cells(*pair) for pair in later)
 
 

@@ -558,3 +558,7 @@ done; done
 for dataset in intersection-1 intersection-2; do for matching in mse top-mse; do
   step $S bench --datasets $dataset --estimator proposed --training step-by-step --loss top-mse --matching $matching $SEL $COMMON --workers 2
 done; done
+# ---- 2026-12-05 (fifty-third session): step 44 restarted at 05:37 in the same folder (run53.sh had died with the
+#      fifty-second session; bench reused 4 finished runs): intersection-1 done, MSE matching 310-673 s a run,
+#      Top-MSE matching 17 min (5 runs, 218-466 s each); archive docs/results/runs_fiftythird.csv; its runs equal the
+#      lost sixth-session runs to the hundredth of a point ----

@@ -562,3 +562,8 @@ done; done
 #      fifty-second session; bench reused 4 finished runs): intersection-1 done, MSE matching 310-673 s a run,
 #      Top-MSE matching 17 min (5 runs, 218-466 s each); archive docs/results/runs_fiftythird.csv; its runs equal the
 #      lost sixth-session runs to the hundredth of a point ----
+# ---- 2026-12-05 (fifty-third session): step 44 complete — intersection-2 MSE matching in 21 min (5 runs, 407-523 s
+#      each), Top-MSE matching in 19 min (336-450 s each); appended to docs/results/runs_fiftythird.csv. Both halves equal
+#      the lost sixth-session runs to the hundredth (not the thirteenth session's rerun of the Top-MSE-matching side).
+#      With it every cell of the paper's matching table is measured on true maps; left for issue 27: the UNet in the
+#      loop on intersections 3-5 (GPU only) ----

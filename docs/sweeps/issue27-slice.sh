@@ -567,3 +567,13 @@ done; done
 #      the lost sixth-session runs to the hundredth (not the thirteenth session's rerun of the Top-MSE-matching side).
 #      With it every cell of the paper's matching table is measured on true maps; left for issue 27: the UNet in the
 #      loop on intersections 3-5 (GPU only) ----
+# 45. (fifty-third session, /work/sweep29/run55.sh in the same folder) the UNet in the loop on intersection-3, on the
+#     CPU since no GPU was lent from the fiftieth session on: the cell of intersection-2's step 20 (class-weighted
+#     UNet under the 30-epoch ceiling), in seed slices that fit a session; sha2020 first (it trains each seed's three
+#     UNets, ~65 min a run), then the proposed model on the cached UNets; each slice appended to
+#     docs/results/runs_unet30w_intersection3.csv (`--where dataset=intersection-3 segmentation=unet`)
+# $S generate intersection-3 --profile quick --out data --workers 2 --splits --quiet --yes
+U3="--datasets intersection-3 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"
+for seeds in 0-1 2-3 4; do for estimator in sha2020 proposed; do
+  step $S bench --estimator $estimator --seeds $seeds $U3
+done; done

@@ -577,3 +577,6 @@ U3="--datasets intersection-3 --segmentation unet --config docs/sweeps/unet30w.y
 for seeds in 0-1 2-3 4; do for estimator in sha2020 proposed; do
   step $S bench --estimator $estimator --seeds $seeds $U3
 done; done
+# ---- 2026-12-05 (fifty-third session): step 45's seeds 0-1 done in 52 min (sha2020 2,587-2,601 s a run with its
+#      seed's three UNets, proposed 430-479 s; archive docs/results/runs_unet30w_intersection3.csv); seeds 2-3 started
+#      at 07:40 (/work/sweep29/run56.sh), under way at the stop ----

@@ -580,3 +580,14 @@ done; done
 # ---- 2026-12-05 (fifty-third session): step 45's seeds 0-1 done in 52 min (sha2020 2,587-2,601 s a run with its
 #      seed's three UNets, proposed 430-479 s; archive docs/results/runs_unet30w_intersection3.csv); seeds 2-3 started
 #      at 07:40 (/work/sweep29/run56.sh), under way at the stop ----
+# ---- 2026-12-05 (fifty-fourth session): seeds 2-3 (cut short by the fifty-third session's stop, restarted in the same
+#      folder: bench reused the UNets cached before it) done in 36 min (sha2020 1,629-1,682 s, proposed 466-488 s),
+#      appended to the archive (--expect 8); the UNets' per-class IoU (`synthcal segmentation`) written to
+#      docs/results/unet30w_intersection3_segmentation.csv. Seed 4 started beside intersection-4's seed 0 (step 46),
+#      one run each (--workers 1) ----
+# 46. (fifty-fourth session) the same cell on intersection-4, seed slices as step 45
+# $S generate intersection-4 --profile quick --out data --workers 2 --splits --quiet --yes
+U4="--datasets intersection-4 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"
+for seeds in 0 1-2 3-4; do for estimator in sha2020 proposed; do
+  step $S bench --estimator $estimator --seeds $seeds $U4
+done; done

@@ -584,7 +584,10 @@ done; done
 #      folder: bench reused the UNets cached before it) done in 36 min (sha2020 1,629-1,682 s, proposed 466-488 s),
 #      appended to the archive (--expect 8); the UNets' per-class IoU (`synthcal segmentation`) written to
 #      docs/results/unet30w_intersection3_segmentation.csv. Seed 4 started beside intersection-4's seed 0 (step 46),
-#      one run each (--workers 1) ----
+#      two benches of one run each side by side. First with --workers 1, which this clone turns into two torch
+#      threads a run (it sets OMP_NUM_THREADS to cores / workers, whatever the caller exported): 42 min of runs at
+#      another thread count than every archived run, killed unfinished (the two match files they had cached
+#      deleted), restarted with --workers 2, one thread a run ----
 # 46. (fifty-fourth session) the same cell on intersection-4, seed slices as step 45
 # $S generate intersection-4 --profile quick --out data --workers 2 --splits --quiet --yes
 U4="--datasets intersection-4 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"

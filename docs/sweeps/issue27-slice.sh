@@ -588,6 +588,9 @@ done; done
 #      threads a run (it sets OMP_NUM_THREADS to cores / workers, whatever the caller exported): 42 min of runs at
 #      another thread count than every archived run, killed unfinished (the two match files they had cached
 #      deleted), restarted with --workers 2, one thread a run ----
+# ---- 2026-12-05 (fifty-fourth session): step 45 complete — seed 4 in 47 min (sha2020 2,382 s, proposed 447 s; the
+#      archive holds 10 runs, --expect 10); intersection-4's seed 0 (step 46) finished beside it, not archived (one
+#      seed gives no interval); seeds 1-2 started after it ----
 # 46. (fifty-fourth session) the same cell on intersection-4, seed slices as step 45
 # $S generate intersection-4 --profile quick --out data --workers 2 --splits --quiet --yes
 U4="--datasets intersection-4 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"

@@ -597,3 +597,7 @@ U4="--datasets intersection-4 --segmentation unet --config docs/sweeps/unet30w.y
 for seeds in 0 1-2 3-4; do for estimator in sha2020 proposed; do
   step $S bench --estimator $estimator --seeds $seeds $U4
 done; done
+# ---- 2026-12-05 (fifty-fifth session): step 46's seeds 1-2 — sha2020 (2,239-2,462 s a run with its seed's UNets)
+#      finished before the fifty-fourth session's stop, the proposed half (309-419 s) in this one, restarted in the
+#      same folder; seeds 0-2 archived in docs/results/runs_unet30w_intersection4.csv (--expect 6); seeds 3-4 started
+#      at 11:11 (/work/sweep29/run62.sh) ----

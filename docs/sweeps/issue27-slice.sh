@@ -601,3 +601,14 @@ done; done
 #      finished before the fifty-fourth session's stop, the proposed half (309-419 s) in this one, restarted in the
 #      same folder; seeds 0-2 archived in docs/results/runs_unet30w_intersection4.csv (--expect 6); seeds 3-4 started
 #      at 11:11 (/work/sweep29/run62.sh) ----
+# ---- 2026-12-05 (fifty-fifth session): step 46 complete — seeds 3-4 in 47 min (sha2020 2,273-2,326 s, proposed
+#      431-483 s); the archive holds 10 runs (--expect 10); the UNets' per-class IoU written to
+#      docs/results/unet30w_intersection4_segmentation.csv ----
+# 47. (fifty-fifth session, /work/sweep29/run63.sh in the same folder) the same cell on intersection-5, seed slices
+#     0-1, 2-3, 4; each appended to docs/results/runs_unet30w_intersection5.csv (`--where dataset=intersection-5
+#     segmentation=unet`); the true-map runs to pair with: runs_thirtyfifth.csv
+# $S generate intersection-5 --profile quick --out data --workers 2 --splits --quiet --yes
+U5="--datasets intersection-5 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"
+for seeds in 0-1 2-3 4; do for estimator in sha2020 proposed; do
+  step $S bench --estimator $estimator --seeds $seeds $U5
+done; done

@@ -612,3 +612,6 @@ U5="--datasets intersection-5 --segmentation unet --config docs/sweeps/unet30w.y
 for seeds in 0-1 2-3 4; do for estimator in sha2020 proposed; do
   step $S bench --estimator $estimator --seeds $seeds $U5
 done; done
+# ---- 2026-12-05 (fifty-fifth session): step 47's seeds 0-1 done in 56 min (sha2020 2,502-2,863 s, slowed by a fresh
+#      clone's make test beside them; proposed 484-509 s); archived in docs/results/runs_unet30w_intersection5.csv
+#      (--expect 4); seeds 2-3 started at 12:55 (/work/sweep29/run63.sh), under way at the stop ----

@@ -572,11 +572,17 @@ done; done
 #     UNet under the 30-epoch ceiling), in seed slices that fit a session; sha2020 first (it trains each seed's three
 #     UNets, ~65 min a run), then the proposed model on the cached UNets; each slice appended to
 #     docs/results/runs_unet30w_intersection3.csv (`--where dataset=intersection-3 segmentation=unet`)
-# $S generate intersection-3 --profile quick --out data --workers 2 --splits --quiet --yes
-U3="--datasets intersection-3 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"
-for seeds in 0-1 2-3 4; do for estimator in sha2020 proposed; do
-  step $S bench --estimator $estimator --seeds $seeds $U3
-done; done
+# unet_cell DATASET SLICE...: steps 45-47's cell on one intersection, each seed slice sha2020 first, then the
+# proposed model; the store first (seconds; it is reused when present)
+unet_cell() {
+  local dataset=$1 seeds estimator; shift
+  [ -d "data/$dataset.zarr" ] || step $S generate "$dataset" --profile quick --out data --workers 2 --splits --quiet --yes
+  for seeds in "$@"; do for estimator in sha2020 proposed; do
+    step $S bench --estimator "$estimator" --seeds "$seeds" --datasets "$dataset" --segmentation unet \
+        --config "$HERE/unet30w.yaml" $SEL --data data --results results --profile quick --quiet --yes --workers 2
+  done; done
+}
+unet_cell intersection-3 0-1 2-3 4
 # ---- 2026-12-05 (fifty-third session): step 45's seeds 0-1 done in 52 min (sha2020 2,587-2,601 s a run with its
 #      seed's three UNets, proposed 430-479 s; archive docs/results/runs_unet30w_intersection3.csv); seeds 2-3 started
 #      at 07:40 (/work/sweep29/run56.sh), under way at the stop ----
@@ -592,11 +598,7 @@ done; done
 #      archive holds 10 runs, --expect 10); intersection-4's seed 0 (step 46) finished beside it, not archived (one
 #      seed gives no interval); seeds 1-2 started after it ----
 # 46. (fifty-fourth session) the same cell on intersection-4, seed slices as step 45
-# $S generate intersection-4 --profile quick --out data --workers 2 --splits --quiet --yes
-U4="--datasets intersection-4 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"
-for seeds in 0 1-2 3-4; do for estimator in sha2020 proposed; do
-  step $S bench --estimator $estimator --seeds $seeds $U4
-done; done
+unet_cell intersection-4 0 1-2 3-4
 # ---- 2026-12-05 (fifty-fifth session): step 46's seeds 1-2 — sha2020 (2,239-2,462 s a run with its seed's UNets)
 #      finished before the fifty-fourth session's stop, the proposed half (309-419 s) in this one, restarted in the
 #      same folder; seeds 0-2 archived in docs/results/runs_unet30w_intersection4.csv (--expect 6); seeds 3-4 started
@@ -607,11 +609,7 @@ done; done
 # 47. (fifty-fifth session, /work/sweep29/run63.sh in the same folder) the same cell on intersection-5, seed slices
 #     0-1, 2-3, 4; each appended to docs/results/runs_unet30w_intersection5.csv (`--where dataset=intersection-5
 #     segmentation=unet`); the true-map runs to pair with: runs_thirtyfifth.csv
-# $S generate intersection-5 --profile quick --out data --workers 2 --splits --quiet --yes
-U5="--datasets intersection-5 --segmentation unet --config docs/sweeps/unet30w.yaml $SEL --data data --results results --profile quick --quiet --yes --workers 2"
-for seeds in 0-1 2-3 4; do for estimator in sha2020 proposed; do
-  step $S bench --estimator $estimator --seeds $seeds $U5
-done; done
+unet_cell intersection-5 0-1 2-3 4
 # ---- 2026-12-05 (fifty-fifth session): step 47's seeds 0-1 done in 56 min (sha2020 2,502-2,863 s, slowed by a fresh
 #      clone's make test beside them; proposed 484-509 s); archived in docs/results/runs_unet30w_intersection5.csv
 #      (--expect 4); seeds 2-3 started at 12:55 (/work/sweep29/run63.sh), under way at the stop ----

@@ -571,15 +571,17 @@ done; done
 #     CPU since no GPU was lent from the fiftieth session on: the cell of intersection-2's step 20 (class-weighted
 #     UNet under the 30-epoch ceiling), in seed slices that fit a session; sha2020 first (it trains each seed's three
 #     UNets, ~65 min a run), then the proposed model on the cached UNets; each slice appended to
-#     docs/results/runs_unet30w_intersection3.csv (`--where dataset=intersection-3 segmentation=unet`)
-# unet_cell DATASET SLICE...: steps 45-47's cell on one intersection, each seed slice sha2020 first, then the
-# proposed model; the store first (seconds; it is reused when present)
+#     docs/results/runs_unet30w_intersection3.csv (`--where dataset=intersection-3 segmentation=unet`; add
+#     `loss=top-mse` once step 48's Top-Dice runs share the folder)
+# [LOSS=...] unet_cell DATASET SLICE...: steps 45-48's cell on one intersection (Top-MSE unless LOSS names another),
+# each seed slice sha2020 first, then the proposed model; the store first (seconds; it is reused when present)
 unet_cell() {
   local dataset=$1 seeds estimator; shift
   [ -d "data/$dataset.zarr" ] || step $S generate "$dataset" --profile quick --out data --workers 2 --splits --quiet --yes
   for seeds in "$@"; do for estimator in sha2020 proposed; do
     step $S bench --estimator "$estimator" --seeds "$seeds" --datasets "$dataset" --segmentation unet \
-        --config "$HERE/unet30w.yaml" $SEL --data data --results results --profile quick --quiet --yes --workers 2
+        --loss "${LOSS:-top-mse}" --config "$HERE/unet30w.yaml" $SEL --data data --results results --profile quick \
+        --quiet --yes --workers 2
   done; done
 }
 unet_cell intersection-3 0-1 2-3 4
@@ -612,4 +614,14 @@ unet_cell intersection-4 0 1-2 3-4
 unet_cell intersection-5 0-1 2-3 4
 # ---- 2026-12-05 (fifty-fifth session): step 47's seeds 0-1 done in 56 min (sha2020 2,502-2,863 s, slowed by a fresh
 #      clone's make test beside them; proposed 484-509 s); archived in docs/results/runs_unet30w_intersection5.csv
-#      (--expect 4); seeds 2-3 started at 12:55 (/work/sweep29/run63.sh), under way at the stop ----
+#      (--expect 4); seeds 2-3 started at 12:55 (/work/sweep29/run63.sh) ----
+# ---- 2026-12-05 (fifty-sixth session): step 47 complete — seeds 2-3 (finished at the fifty-fifth session's stop) in
+#      49 min (sha2020 2,330-2,465 s, proposed 453-467 s); seed 4, killed by that stop and rerun from 13:49 (run63.sh's
+#      loop cut to seed 4) beside step 48, in 57 min (2,723 s, 681 s); the archive holds 10 runs (--expect 10); the
+#      UNets' per-class IoU written to docs/results/unet30w_intersection5_segmentation.csv ----
+# 48. (fifty-sixth session, /work/sweep29/run65.sh in the same folder, chained after step 47) the UNet in the loop
+#     with Top-Dice step by step on intersection-3, the paper's largest step-by-step gain after intersection-2
+#     (+7.67): the UNets step 45 cached are reused (a UNet's cache key holds no STN loss), so a run costs what a
+#     proposed run of step 45 did; archive docs/results/runs_unet30w_topdice_intersection3.csv (`--where
+#     dataset=intersection-3 segmentation=unet loss=top-dice`); the true-map runs to pair with: runs_twentyseventh.csv
+LOSS=top-dice unet_cell intersection-3 0-1 2-4

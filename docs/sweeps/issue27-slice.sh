@@ -625,3 +625,9 @@ unet_cell intersection-5 0-1 2-3 4
 #     proposed run of step 45 did; archive docs/results/runs_unet30w_topdice_intersection3.csv (`--where
 #     dataset=intersection-3 segmentation=unet loss=top-dice`); the true-map runs to pair with: runs_twentyseventh.csv
 LOSS=top-dice unet_cell intersection-3 0-1 2-4
+# ---- 2026-12-05 (fifty-sixth session): step 48 done in 45 min (run65.sh ran both models in one bench per seed slice,
+#      0-1 beside step 47's seed 4, then 2-4; sha2020 401-456 s, proposed 517-700 s); archive
+#      docs/results/runs_unet30w_topdice_intersection3.csv (--expect 10) ----
+# 49. (fifty-sixth session, /work/sweep29/run66.sh, chained after step 48) Top-Dice on intersections 4 and 5 (paper
+#     +1.35 and +1.80) on the UNets steps 46 and 47 cached; archives runs_unet30w_topdice_intersection{4,5}.csv
+for dataset in intersection-4 intersection-5; do LOSS=top-dice unet_cell $dataset 0-4; done

@@ -631,3 +631,6 @@ LOSS=top-dice unet_cell intersection-3 0-1 2-4
 # 49. (fifty-sixth session, /work/sweep29/run66.sh, chained after step 48) Top-Dice on intersections 4 and 5 (paper
 #     +1.35 and +1.80) on the UNets steps 46 and 47 cached; archives runs_unet30w_topdice_intersection{4,5}.csv
 for dataset in intersection-4 intersection-5; do LOSS=top-dice unet_cell $dataset 0-4; done
+# ---- 2026-12-05 (fifty-sixth session): step 49's intersection-4 done in 33 min (run66.sh, one bench of both models,
+#      seeds 0-4; sha2020 274-415 s, proposed 374-524 s); archive docs/results/runs_unet30w_topdice_intersection4.csv
+#      (--expect 10); intersection-5 started at 15:30, under way at the stop ----

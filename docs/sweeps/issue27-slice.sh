@@ -633,4 +633,6 @@ LOSS=top-dice unet_cell intersection-3 0-1 2-4
 for dataset in intersection-4 intersection-5; do LOSS=top-dice unet_cell $dataset 0-4; done
 # ---- 2026-12-05 (fifty-sixth session): step 49's intersection-4 done in 33 min (run66.sh, one bench of both models,
 #      seeds 0-4; sha2020 274-415 s, proposed 374-524 s); archive docs/results/runs_unet30w_topdice_intersection4.csv
-#      (--expect 10); intersection-5 started at 15:30, under way at the stop ----
+#      (--expect 10) ----
+# ---- 2026-12-05 (fifty-sixth session): step 49 complete — intersection-5 in 36 min (sha2020 279-410 s, proposed
+#      385-519 s); archive docs/results/runs_unet30w_topdice_intersection5.csv (--expect 10) ----

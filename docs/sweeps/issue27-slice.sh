@@ -636,3 +636,9 @@ for dataset in intersection-4 intersection-5; do LOSS=top-dice unet_cell $datase
 #      (--expect 10) ----
 # ---- 2026-12-05 (fifty-sixth session): step 49 complete — intersection-5 in 36 min (sha2020 279-410 s, proposed
 #      385-519 s); archive docs/results/runs_unet30w_topdice_intersection5.csv (--expect 10) ----
+# 50. (fifty-sixth session, /work/sweep29/run67.sh in the same folder, started 16:12) Dice step by step with the UNet on
+#     intersections 3-5 (paper +0.75, +1.00, -2.20) on the UNets steps 45-47 cached, one bench of both models per
+#     intersection; archives runs_unet30w_dice_intersection{3,4,5}.csv (`--where dataset=intersection-N
+#     segmentation=unet loss=dice`); the true-map runs to pair with: runs_twentyeighth.csv. Under way at the
+#     fifty-sixth session's stop (finished runs are reused)
+for dataset in intersection-3 intersection-4 intersection-5; do LOSS=dice unet_cell $dataset 0-4; done

@@ -40,11 +40,13 @@ EXPORTS: dict[str, str] = {
     "segmentation_quality": "synthcal.api:segmentation_quality",
     "report": "synthcal.api:report",
     "paired_differences": "synthcal.api:paired_differences",
+    "paired_contrast": "synthcal.api:paired_contrast",
 }
 
 # Written out (not derived from EXPORTS) so that linters and IDEs read it; tests/test_api.py holds the two equal.
 __all__ = ["__version__", "load_config", "generate_store", "open_store", "load_split", "SplitDataset", "Estimator",
-           "evaluate", "evaluate_images", "bench", "segmentation_quality", "report", "paired_differences"]
+           "evaluate", "evaluate_images", "bench", "segmentation_quality", "report", "paired_differences",
+           "paired_contrast"]
 
 if TYPE_CHECKING:
     from synthcal.api import (
@@ -55,6 +57,7 @@ if TYPE_CHECKING:
         load_config,
         load_split,
         open_store,
+        paired_contrast,
         paired_differences,
         report,
         segmentation_quality,

@@ -375,6 +375,46 @@ def paired_differences(results: str | Path, a: str, b: str, *, metric: str = "io
     return paired_numbers(_finished_runs(results), (a, b), metric, results, other, against)
 
 
+def paired_contrast(results: str | Path, a: str, b: str, c: str, d: str, *, metric: str = "iou",
+                    against: str | Path | None = None) -> pd.DataFrame:
+    """``synthcal table RESULTS --paired A B --between C D [--against OTHER]``'s numbers: per cell, how much
+    larger the paired difference A − B is under C than under D — per seed ``(A − B)_C − (A − B)_D``, with
+    its 95 % t interval over seeds (e.g. whether a UNet's maps cost one model more than another).
+
+    Args:
+        results, a, b, metric, against: as :func:`paired_differences`.
+        c, d: two values of another key than A and B's: model labels or estimator names, or ``KEY=VALUE``.
+
+    Returns:
+        one row per cell (:func:`synthcal.eval.statistics.contrast_frame`): the other keys, ``mean``,
+        ``std``, ``n_pairs`` (seeds with all four runs), ``c_wins``, ``t_low``, ``t_high``, ``p``.
+
+    Raises:
+        ValueError: as :func:`paired_differences`, C or D over A and B's key, or no seed with all four runs.
+
+    Example (a hand-made runs archive: what a UNet's maps cost each model on three seeds):
+        >>> import tempfile, pandas as pd, synthcal
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> iou = {("proposed", "ground-truth"): [.60, .62, .58], ("proposed", "unet"): [.55, .60, .53],
+        ...        ("sha2020", "ground-truth"): [.63, .64, .62], ("sha2020", "unet"): [.62, .63, .61]}
+        >>> runs = pd.DataFrame([dict(dataset="intersection-1", model=m, estimator=m, training="step-by-step",
+        ...     loss="top-mse", matching_score="top-mse", segmentation=s, profile="quick", dictionary="split",
+        ...     status="ok", seed=k, iou=v, run_id=f"{m}_{s}_s{k}")
+        ...     for (m, s), values in iou.items() for k, v in enumerate(values)])
+        >>> choices = ["learning_rate", "unet_epochs", "stn_epochs", "unet_missed", "seconds"]
+        >>> runs.reindex(columns=[*runs, *choices]).to_csv(f"{tmp.name}/runs.csv", index=False)
+        >>> cell = synthcal.paired_contrast(f"{tmp.name}/runs.csv", "segmentation=ground-truth",
+        ...                                 "segmentation=unet", "proposed", "sha2020").iloc[0]
+        >>> round(float(cell["mean"]), 2), int(cell["c_wins"]), int(cell["n_pairs"])
+        (3.0, 3, 3)
+        >>> tmp.cleanup()
+    """
+    from synthcal.eval.report import contrast_numbers
+
+    other = None if against is None else _finished_runs(against)
+    return contrast_numbers(_finished_runs(results), (a, b), (c, d), metric, results, other, against)
+
+
 def segmentation_quality(results: str | Path, data: str | Path | None = None, *, device: str = "cpu",
                          batch_size: int = 64) -> pd.DataFrame:
     """The UNets a results folder caches, scored on the test split of their seed (issue 27).

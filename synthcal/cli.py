@@ -591,18 +591,21 @@ def _print_tables(frame: pd.DataFrame, layout: str | None, fmt: str, compare_pap
 
 
 def _print_paired(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: str, results: Path,
-                  against: Path | None = None) -> None:
-    """Print :func:`synthcal.eval.report.paired_report` (``against``: side B's results folder)."""
-    from synthcal.eval.report import ReportError, finished_runs, paired_report
+                  against: Path | None = None, between: Sequence[str] | None = None) -> None:
+    """Print :func:`synthcal.eval.report.paired_report` (``against``: side B's results folder), or with
+    ``between`` :func:`synthcal.eval.report.contrast_report`."""
+    from synthcal.eval.report import ReportError, contrast_report, finished_runs, paired_report
 
     try:
         other = None if against is None else finished_runs(against)
     except ReportError as error:
         raise _UserError(f"--against {error}") from None
     try:
-        text = paired_report(frame, sides, fmt, metric, results, other, against)
+        text = (paired_report(frame, sides, fmt, metric, results, other, against) if between is None
+                else contrast_report(frame, sides, between, fmt, metric, results, other, against))
     except ReportError as error:
-        raise _UserError(f"--paired: {error}") from None
+        message = str(error)  # a --between error names its option itself
+        raise _UserError(message if message.startswith("--between") else f"--paired: {message}") from None
     print(text.rstrip("\n"))
 
 
@@ -780,11 +783,14 @@ def _cmd_table(args: argparse.Namespace) -> None:
         frame = finished_runs(args.results)
     except ReportError as error:
         raise _UserError(str(error)) from None
+    if args.between and not args.paired:
+        raise _UserError("--between needs --paired A B: it compares A − B between two values of another key (e.g. "
+                         "--paired segmentation=ground-truth segmentation=unet --between proposed sha2020)")
     if args.against and not args.paired:
         raise _UserError("--against needs --paired A B: A is read from RESULTS, B from the other folder (e.g. "
                          "--paired segmentation=unet segmentation=unet)")
     if args.paired:
-        _print_paired(frame, args.paired, args.format, args.metric, args.results, args.against)
+        _print_paired(frame, args.paired, args.format, args.metric, args.results, args.against, args.between)
     else:
         _print_tables(frame, args.layout, args.format, args.compare_paper, args.metric, args.results)
     # Failed runs count in the means (IoU 0, completeness 0); say which and why, off stdout for CSV; so too
@@ -1251,6 +1257,11 @@ def _add_table(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                         "its own, e.g. `synthcal table results-weighted --against results-plain --paired "
                         "segmentation=unet segmentation=unet`, or true maps against a UNet's, `--paired "
                         "segmentation=ground-truth segmentation=unet`")
+    p.add_argument("--between", nargs=2, default=None, metavar=("C", "D"),
+                   help="with --paired A B: per seed, A − B under C minus A − B under D (C, D: models, or "
+                        "KEY=VALUE of another key than --paired's), with its mean, t interval over seeds and p — "
+                        "e.g. whether a UNet's maps cost one model more than another: `--paired "
+                        "segmentation=ground-truth segmentation=unet --between proposed sha2020`")
     p.set_defaults(func=_cmd_table)
 
 

@@ -31,7 +31,14 @@ from synthcal.eval.archive import ArchiveError, is_archive, read_archive, runs_a
 from synthcal.eval.harness import collect_results, table_runs
 from synthcal.eval.reproduction import format_report, report_frame
 from synthcal.eval.runs import estimator_label
-from synthcal.eval.statistics import background_floor, format_paired, paired_frame, paired_runs
+from synthcal.eval.statistics import (
+    background_floor,
+    contrast_frame,
+    format_contrast,
+    format_paired,
+    paired_frame,
+    paired_runs,
+)
 from synthcal.eval.tables import LAYOUTS, MISSING, PAIR_KEYS, format_table, legend, text_table, wrap_caption
 from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle_cells, template_diagnostics
 
@@ -461,6 +468,12 @@ def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
         raise ReportError(str(error)) from None
     if claim is None or fmt == "csv":
         return text
+    return text.rstrip("\n") + "\n" + wrap_caption(_across_note(frame, key, a, b, results, other_results), fmt) + "\n"
+
+
+def _across_note(frame: pd.DataFrame, key: str, a: str, b: str, results: str | Path | None,
+                 other_results: str | Path | None) -> str:
+    """The caption's note on two sides read from two results folders: what else than ``key`` they may differ in."""
     note = (f"Across two results folders: A, {a}, the runs of {results}; B, {b}, the runs of {other_results}. "
             f"Paired on the dataset, seed and the other keys above, A and B also differ in whatever settings "
             f"or code the two folders' runs differ in (each run's run.json records them).")
@@ -471,6 +484,60 @@ def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
 
         note += (f" The paired runs' recorded training budgets differ: only A's record {quoted(only_a)}; only B's "
                  f"{quoted(only_b)}.")
+    return note
+
+
+def _contrast_inputs(frame: pd.DataFrame, sides: Sequence[str], between: Sequence[str], metric: str,
+                     results: str | Path | None, other: pd.DataFrame | None,
+                     other_results: str | Path | None) -> tuple[_Paired, str, str, str]:
+    """``--paired A B --between C D [--against OTHER]``: :class:`_Paired` for A and B, then ``(between key,
+    c, d)``, C and D resolved as ``--paired``'s sides are (model names, ``KEY=VALUE``)."""
+    paired = _paired_inputs(frame, sides, metric, results, other, other_results)
+    if paired.key in {side.rpartition("=")[0] or "model" for side in between}:
+        raise ReportError(f"--between must vary another key than --paired's {paired.key!r} (value "
+                          f"{' '.join(between)!r}); e.g. --paired segmentation=ground-truth segmentation=unet "
+                          f"--between proposed sha2020")
+    try:
+        between_key, c, d = paired_sides(paired.frame, between)
+    except ReportError as error:
+        raise ReportError(f"--between: {error}") from None
+    return paired, between_key, c, d
+
+
+def contrast_numbers(frame: pd.DataFrame, sides: Sequence[str], between: Sequence[str], metric: str,
+                     results: str | Path | None = None, other: pd.DataFrame | None = None,
+                     other_results: str | Path | None = None) -> pd.DataFrame:
+    """:func:`contrast_report`'s numbers: :func:`synthcal.eval.statistics.contrast_frame`, one row per cell.
+
+    Raises:
+        ReportError: as :func:`contrast_report`.
+    """
+    paired, between_key, c, d = _contrast_inputs(frame, sides, between, metric, results, other, other_results)
+    try:
+        return contrast_frame(paired.frame, paired.a, paired.b, paired.key, c, d, between_key, metric)
+    except ValueError as error:
+        raise ReportError(str(error)) from None
+
+
+def contrast_report(frame: pd.DataFrame, sides: Sequence[str], between: Sequence[str], fmt: str, metric: str,
+                    results: str | Path | None = None, other: pd.DataFrame | None = None,
+                    other_results: str | Path | None = None) -> str:
+    """``table --paired A B --between C D [--against OTHER]``: per cell, how much larger the paired difference
+    A − B is under C than under D (per seed, then the t interval over seeds) — e.g. whether a UNet's maps cost
+    the proposed model more than ``sha2020``.
+
+    Raises:
+        ReportError: as :func:`paired_report`, a ``--between`` side no run has, ``--between`` over ``--paired``'s
+            key, or no seed with all four runs.
+    """
+    paired, between_key, c, d = _contrast_inputs(frame, sides, between, metric, results, other, other_results)
+    try:
+        text = format_contrast(paired.frame, paired.a, paired.b, paired.key, c, d, between_key, fmt, metric)
+    except ValueError as error:
+        raise ReportError(str(error)) from None
+    if paired.claim is None or fmt == "csv":
+        return text
+    note = _across_note(paired.frame, paired.key, paired.a, paired.b, results, other_results)
     return text.rstrip("\n") + "\n" + wrap_caption(note, fmt) + "\n"
 
 

@@ -38,6 +38,18 @@ Jaccard ``s₀`` (the prediction covers the whole view) weighted by its share
 ``s₀``, the other classes' Jaccard 0. At ``s₀ ≈ 0.73`` that is ~53: half of
 ``iou_weighted``'s scale is reached by predicting nothing.
 
+Contrasts of paired differences
+-------------------------------
+Whether a paired difference A − B is larger under one value C of a second key than
+under another, D — what a UNet's maps cost the proposed model against what they
+cost ``sha2020`` (``key`` segmentation, ``between`` model). Per seed the four runs
+(A and B under C, A and B under D) give one contrast ``(A − B)_C − (A − B)_D``;
+:func:`contrast_frame` summarises them per cell with the paired t interval over
+seeds (:func:`t_interval`), the interval of scipy's ``ttest_rel`` of the per-seed
+``(A − B)_C`` against ``(A − B)_D``. No bootstrap: the four runs' per-image scores
+are two pairs' differences on the same images, which their mean over seeds already
+sums up; no paper figure: the paper publishes no such contrast.
+
 Example
 -------
 >>> low, high, p = t_interval([2.0, 2.0, -1.0, 4.0, 2.0])
@@ -70,7 +82,8 @@ from synthcal.eval.tables import (
 )
 
 __all__ = ["CONFIDENCE", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "t_interval", "bootstrap_interval",
-           "background_floor", "VERDICTS", "UNDECIDED", "verdict", "paired_runs", "paired_frame", "format_paired"]
+           "background_floor", "VERDICTS", "UNDECIDED", "verdict", "paired_runs", "paired_frame", "format_paired",
+           "contrast_frame", "format_contrast"]
 
 CONFIDENCE = 0.95
 BOOTSTRAP_RESAMPLES = 2000
@@ -336,9 +349,7 @@ def format_paired(
     others = [k for k in PAIR_KEYS if k != key]
     varying = [k for k in others if k == "dataset" or cells[k].nunique() > 1]
     constants = {k: cells[k].iloc[0] for k in others if k not in varying and cells[k].iloc[0] != MISSING}
-    order = [{v: i for i, v in enumerate(order_values(cells[k], k, "models"))} for k in varying]
-    cells = cells.iloc[sorted(range(len(cells)),
-                              key=lambda i: [o[cells[k].iloc[i]] for o, k in zip(order, varying, strict=True)])]
+    cells = _in_paper_order(cells, varying)
     if fmt == "csv":
         return cells[[*varying, "mean", "std", "n_pairs", "a_wins", "t_low", "t_high", "p", "boot_low", "boot_high",
                       "paper", "verdict"]].to_csv(index=False)
@@ -354,6 +365,13 @@ def format_paired(
             f"{row['a_wins']} of {row['n_pairs']}", paper, row["verdict"]])
     caption = wrap_caption(_paired_caption(a, b, key, value, constants, resamples), fmt)
     return text_table(header, body, "l" * len(varying) + "r" * (len(header) - len(varying) - 1) + "l", caption, fmt)
+
+
+def _in_paper_order(cells: pd.DataFrame, keys: Sequence[str]) -> pd.DataFrame:
+    """The rows of ``cells`` sorted on ``keys`` in the paper's order of their values (:func:`order_values`)."""
+    order = [{v: i for i, v in enumerate(order_values(cells[k], k, "models"))} for k in keys]
+    return cells.iloc[sorted(range(len(cells)),
+                             key=lambda i: [o[cells[k].iloc[i]] for o, k in zip(order, keys, strict=True)])]
 
 
 def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str, str], resamples: int) -> str:
@@ -373,3 +391,91 @@ def _paired_caption(a: str, b: str, key: str, value: str, constants: Mapping[str
         text += " " + "; ".join(f"{k}: {SEGMENTATION_WORDS.get(v, v) if k == 'segmentation' else v}"
                                 for k, v in constants.items()) + "."
     return text
+
+
+# --- contrasts of paired differences -----------------------------------------------------
+
+
+def contrast_frame(results: pd.DataFrame, a: str, b: str, key: str, c: str, d: str, between: str = "model",
+                   value: str = "iou") -> pd.DataFrame:
+    """Per seed, the paired difference A − B under ``between`` = C minus the same under D, summarised per cell.
+
+    Args:
+        results: per-run results, as for :func:`paired_frame`.
+        a, b: the two values of ``key`` whose paired difference is contrasted
+            (``ground-truth``, ``unet``: what the UNet's maps cost).
+        key: the key A and B vary, one of :data:`PAIR_KEYS` but ``dataset``.
+        c, d: the two values of ``between`` the difference is compared across (``proposed``, ``sha2020``).
+        between: another such key.
+        value: the metric column.
+
+    Returns:
+        One row per cell (the pair keys other than ``key`` and ``between``): ``mean`` and ``std`` (ddof = 1)
+        of the per-seed contrasts in points, ``n_pairs`` (seeds with all four runs), ``c_wins`` (seeds where
+        C's A − B is the larger), ``t_low``, ``t_high``, ``p`` (:func:`t_interval`). ``attrs``: ``a``,
+        ``b``, ``key``, ``c``, ``d``, ``between``, ``value``.
+
+    Raises:
+        ValueError: bad results (as :func:`paired_frame`), a key that cannot be paired over, ``between``
+            equal to ``key``, or no seed with all four runs.
+
+    >>> runs = pd.DataFrame({"dataset": "d", "model": ["p", "p", "s", "s"] * 2, "seed": [0] * 4 + [1] * 4,
+    ...                      "segmentation": ["true", "unet"] * 4, "iou": [.6, .5, .6, .58, .7, .62, .7, .69]})
+    >>> cell = contrast_frame(runs, "true", "unet", "segmentation", "p", "s").iloc[0]
+    >>> round(float(cell["mean"]), 2), int(cell["c_wins"]), int(cell["n_pairs"])
+    (7.5, 2, 2)
+    """
+    for k in (key, between):
+        if k not in PAIR_KEYS or k == "dataset":
+            raise ValueError(f"cannot pair over {k!r}; one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
+    if key == between:
+        raise ValueError(f"the contrast must be taken over another key than the paired one ({key!r})")
+    pairs = paired_runs(validate_results(results, value, PAIR_KEYS), key, a, b, [value])
+    pairs["difference"] = (pairs[f"{value}_a"] - pairs[f"{value}_b"]) * _points(value)
+    cells = [k for k in PAIR_KEYS if k not in (key, between)]
+    sides = [pairs.loc[pairs[between] == side, [*cells, "seed", "difference"]] for side in (c, d)]
+    both = sides[0].merge(sides[1], on=[*cells, "seed"], suffixes=("_c", "_d"))
+    if both.empty:
+        raise ValueError(f"no seed with all four runs: {key} {a!r} and {b!r}, each under {between} {c!r} and {d!r}, "
+                         f"on the same dataset, seed and settings")
+    both["contrast"] = both["difference_c"] - both["difference_d"]
+    rows = []
+    for cell, group in both.groupby(cells, sort=False):
+        t_low, t_high, p = t_interval(group["contrast"])
+        rows.append({**dict(zip(cells, cell, strict=True)), "mean": group["contrast"].mean(),
+                     "std": group["contrast"].std(ddof=1), "n_pairs": len(group),
+                     "c_wins": int((group["contrast"] > 0).sum()), "t_low": t_low, "t_high": t_high, "p": p})
+    out = pd.DataFrame(rows)
+    out.attrs.update(a=a, b=b, key=key, c=c, d=d, between=between, value=value)
+    return out
+
+
+def format_contrast(results: pd.DataFrame, a: str, b: str, key: str, c: str, d: str, between: str = "model",
+                    fmt: str = "md", value: str = "iou") -> str:
+    """:func:`contrast_frame` as Markdown, LaTeX or CSV text: rows the cell keys that vary (dataset always),
+    columns the contrast's mean ± std, its t interval, p and the seeds where C's A − B is the larger."""
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
+    cells = contrast_frame(results, a, b, key, c, d, between, value)
+    keys = [k for k in PAIR_KEYS if k not in (key, between)]
+    varying = [k for k in keys if k == "dataset" or cells[k].nunique() > 1]
+    constants = {k: cells[k].iloc[0] for k in keys if k not in varying and cells[k].iloc[0] != MISSING}
+    cells = _in_paper_order(cells, varying)
+    if fmt == "csv":
+        return cells[[*varying, "mean", "std", "n_pairs", "c_wins", "t_low", "t_high", "p"]].to_csv(index=False)
+    header = [*varying, f"({a} − {b}) {c} − {d}", "95 % CI (t)", "p", f"{c} > {d}"]
+    body = [[str(row[k]) for k in varying]
+            + [_signed(row["mean"], row["std"], row["n_pairs"]),
+               _interval(row["t_low"], row["t_high"], "undefined (1 seed)" if row["n_pairs"] < 2 else MISSING),
+               _p_value(row["p"]), f"{row['c_wins']} of {row['n_pairs']}"]
+            for _, row in cells.iterrows()]
+    unit = "px" if value in PIXEL_METRICS else "%"
+    caption = (f"({a} − {b}) {c} − {d} in points of {value} ({unit}): per split seed, the paired difference "
+               f"{a} − {b} (two runs that differ only in {key}) under {between} {c}, minus the same under {d}; "
+               f"mean ± std over the seeds (ddof = 1). 95 % CI (t): paired t interval over the seeds, p: its "
+               f"two-sided test of no difference. {c} > {d}: seeds where {c}'s {a} − {b} is the larger. The paper "
+               f"publishes no such contrast.")
+    if constants:
+        caption += " " + "; ".join(f"{k}: {v}" for k, v in constants.items()) + "."
+    return text_table(header, body, "l" * len(varying) + "r" * (len(header) - len(varying)), caption=wrap_caption(
+        caption, fmt), fmt=fmt)

@@ -4,7 +4,10 @@
 # estimators', models' and training's code hash is unchanged, so later sessions must keep using the same clone.
 # Resumable: bench reuses finished runs; kill it at any time and start it again.
 # On a reset machine (the thirty-sixth session's way back to step 18, 2 min): git clone /work/main /work/sweep29/code &&
-#   git -C /work/sweep29/code checkout e8eb178 && make -C /work/sweep29/code venv; then in /work/sweep29 step 0's
+#   git -C /work/sweep29/code checkout e8eb178 && echo opencv-python-headless==5.0.0.93 > /tmp/cv.txt &&
+#   PIP_CONSTRAINT=/tmp/cv.txt make -C /work/sweep29/code venv (e8eb178 asks only for OpenCV >= 4.9, and pip takes 5.1
+#   since 2026-12-02, whose bilinear renders differ: the constraint keeps the stores byte-equal to those the archived
+#   runs read; the clone's tests/generate/test_pipeline.py checks their digests); then in /work/sweep29 step 0's
 #   generate for just the scenes the next step reads (seconds; the regenerated stores give the archived run ids), the
 #   step itself in a script of its own under setsid nohup, and docs/sweeps/archive_runs.py for its archive.
 set -u
@@ -573,18 +576,18 @@ done; done
 #     UNets, ~65 min a run), then the proposed model on the cached UNets; each slice appended to
 #     docs/results/runs_unet30w_intersection3.csv (`--where dataset=intersection-3 segmentation=unet`; add
 #     `loss=top-mse` once step 48's Top-Dice runs share the folder)
-# [LOSS=...] unet_cell DATASET SLICE...: steps 45-48's cell on one intersection (Top-MSE unless LOSS names another),
-# each seed slice sha2020 first, then the proposed model; the store first (seconds; it is reused when present)
+# unet_cell LOSS DATASET SLICE...: steps 45-50's cell on one intersection with one STN loss, each seed slice sha2020
+# first, then the proposed model; the store first (seconds; it is reused when present)
 unet_cell() {
-  local dataset=$1 seeds estimator; shift
+  local loss=$1 dataset=$2 seeds estimator; shift 2
   [ -d "data/$dataset.zarr" ] || step $S generate "$dataset" --profile quick --out data --workers 2 --splits --quiet --yes
   for seeds in "$@"; do for estimator in sha2020 proposed; do
     step $S bench --estimator "$estimator" --seeds "$seeds" --datasets "$dataset" --segmentation unet \
-        --loss "${LOSS:-top-mse}" --config "$HERE/unet30w.yaml" $SEL --data data --results results --profile quick \
+        --loss "$loss" --config "$HERE/unet30w.yaml" $SEL --data data --results results --profile quick \
         --quiet --yes --workers 2
   done; done
 }
-unet_cell intersection-3 0-1 2-3 4
+unet_cell top-mse intersection-3 0-1 2-3 4
 # ---- 2026-12-05 (fifty-third session): step 45's seeds 0-1 done in 52 min (sha2020 2,587-2,601 s a run with its
 #      seed's three UNets, proposed 430-479 s; archive docs/results/runs_unet30w_intersection3.csv); seeds 2-3 started
 #      at 07:40 (/work/sweep29/run56.sh), under way at the stop ----
@@ -600,7 +603,7 @@ unet_cell intersection-3 0-1 2-3 4
 #      archive holds 10 runs, --expect 10); intersection-4's seed 0 (step 46) finished beside it, not archived (one
 #      seed gives no interval); seeds 1-2 started after it ----
 # 46. (fifty-fourth session) the same cell on intersection-4, seed slices as step 45
-unet_cell intersection-4 0 1-2 3-4
+unet_cell top-mse intersection-4 0 1-2 3-4
 # ---- 2026-12-05 (fifty-fifth session): step 46's seeds 1-2 — sha2020 (2,239-2,462 s a run with its seed's UNets)
 #      finished before the fifty-fourth session's stop, the proposed half (309-419 s) in this one, restarted in the
 #      same folder; seeds 0-2 archived in docs/results/runs_unet30w_intersection4.csv (--expect 6); seeds 3-4 started
@@ -611,7 +614,7 @@ unet_cell intersection-4 0 1-2 3-4
 # 47. (fifty-fifth session, /work/sweep29/run63.sh in the same folder) the same cell on intersection-5, seed slices
 #     0-1, 2-3, 4; each appended to docs/results/runs_unet30w_intersection5.csv (`--where dataset=intersection-5
 #     segmentation=unet`); the true-map runs to pair with: runs_thirtyfifth.csv
-unet_cell intersection-5 0-1 2-3 4
+unet_cell top-mse intersection-5 0-1 2-3 4
 # ---- 2026-12-05 (fifty-fifth session): step 47's seeds 0-1 done in 56 min (sha2020 2,502-2,863 s, slowed by a fresh
 #      clone's make test beside them; proposed 484-509 s); archived in docs/results/runs_unet30w_intersection5.csv
 #      (--expect 4); seeds 2-3 started at 12:55 (/work/sweep29/run63.sh) ----
@@ -624,13 +627,13 @@ unet_cell intersection-5 0-1 2-3 4
 #     (+7.67): the UNets step 45 cached are reused (a UNet's cache key holds no STN loss), so a run costs what a
 #     proposed run of step 45 did; archive docs/results/runs_unet30w_topdice_intersection3.csv (`--where
 #     dataset=intersection-3 segmentation=unet loss=top-dice`); the true-map runs to pair with: runs_twentyseventh.csv
-LOSS=top-dice unet_cell intersection-3 0-1 2-4
+unet_cell top-dice intersection-3 0-1 2-4
 # ---- 2026-12-05 (fifty-sixth session): step 48 done in 45 min (run65.sh ran both models in one bench per seed slice,
 #      0-1 beside step 47's seed 4, then 2-4; sha2020 401-456 s, proposed 517-700 s); archive
 #      docs/results/runs_unet30w_topdice_intersection3.csv (--expect 10) ----
 # 49. (fifty-sixth session, /work/sweep29/run66.sh, chained after step 48) Top-Dice on intersections 4 and 5 (paper
 #     +1.35 and +1.80) on the UNets steps 46 and 47 cached; archives runs_unet30w_topdice_intersection{4,5}.csv
-for dataset in intersection-4 intersection-5; do LOSS=top-dice unet_cell $dataset 0-4; done
+for dataset in intersection-4 intersection-5; do unet_cell top-dice $dataset 0-4; done
 # ---- 2026-12-05 (fifty-sixth session): step 49's intersection-4 done in 33 min (run66.sh, one bench of both models,
 #      seeds 0-4; sha2020 274-415 s, proposed 374-524 s); archive docs/results/runs_unet30w_topdice_intersection4.csv
 #      (--expect 10) ----
@@ -641,4 +644,9 @@ for dataset in intersection-4 intersection-5; do LOSS=top-dice unet_cell $datase
 #     intersection; archives runs_unet30w_dice_intersection{3,4,5}.csv (`--where dataset=intersection-N
 #     segmentation=unet loss=dice`); the true-map runs to pair with: runs_twentyeighth.csv. Under way at the
 #     fifty-sixth session's stop (finished runs are reused)
-for dataset in intersection-3 intersection-4 intersection-5; do LOSS=dice unet_cell $dataset 0-4; done
+for dataset in intersection-3 intersection-4 intersection-5; do unet_cell dice $dataset 0-4; done
+# ---- 2026-12-05 (fifty-seventh session): the machine was reset between the sessions: step 50's runs and the UNets
+#      steps 45-47 had cached were lost. The frozen clone rebuilt as the header says (OpenCV 5.0.0.93),
+#      intersection-3's store regenerated, and step 50's intersection-3 run anew in seed slices, sha2020 training
+#      each seed's three UNets again: `unet_cell dice intersection-3 0-1 2-3` (/work/sweep29/run69.sh) beside
+#      `unet_cell dice intersection-3 4` (run70.sh), three runs on the two cores at first ----

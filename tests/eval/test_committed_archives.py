@@ -199,33 +199,33 @@ def test_the_verdict_tally_counts_the_verdict_table():
         assert said in tally, f"{REPORT.name}: the tally does not say '{said}'"
 
 
-# Each UNet cell's "difference of the two costs": (true maps − UNet maps) of the proposed model minus the same of
-# sha2020, paired over seeds, from the true-map archive and the UNet archive the section names.
-UNET_COST_CONTRASTS = [
-    ("runs_thirteenth.csv", "runs_unet30w_intersection2.csv", "## The UNet in the loop (intersection-2, Top-MSE)"),
-    ("runs_thirtyfourth.csv", "runs_unet30w_intersection3.csv", "## The UNet in the loop (intersection-3, Top-MSE)"),
-    ("runs_thirtyfifth.csv", "runs_unet30w_intersection4.csv", "## The UNet in the loop (intersection-4, Top-MSE)"),
-    ("runs_thirtyfifth.csv", "runs_unet30w_intersection5.csv", "## The UNet in the loop (intersection-5, Top-MSE)"),
-    *[("runs_twentyseventh.csv", f"runs_unet30w_topdice_intersection{k}.csv",
-       f"## The UNet in the loop with Top-Dice (intersection-{k})") for k in (3, 4, 5)],
-]
+UNET_TABLE = sweep_script("unet_table")
+
+
+@pytest.mark.parametrize(("dataset", "loss"), list(UNET_TABLE.CELLS))
+def test_each_unet_cells_table_is_what_its_script_prints(dataset: str, loss: str):
+    """A "The UNet in the loop" section's per-seed table (UNet maps beside true maps) is docs/sweeps/unet_table.py's
+    output today, from the two archives the script names for the cell."""
+    section = UNET_TABLE.CELLS[(dataset, loss)].section
+    assert "\n".join(UNET_TABLE.lines(dataset, loss)) in report_section(section), (
+        f"{REPORT.name}, {section}: not the table `unet_table.py {dataset} {loss}` prints")
 
 
 @pytest.mark.parametrize("metric", ["iou", "iou_weighted"])
-@pytest.mark.parametrize(("true_maps", "unet_maps", "section"), UNET_COST_CONTRASTS)
-def test_each_unet_cells_difference_of_costs_is_what_table_between_prints(
-    metric: str, true_maps: str, unet_maps: str, section: str
-):
-    """The difference of the two models' UNet costs a UNet section quotes is `synthcal table TRUE --against UNET
-    --paired segmentation=ground-truth segmentation=unet --between proposed sha2020` today, to the printed digit;
-    and the archive pair gives exactly one such cell (the section's)."""
+@pytest.mark.parametrize(("dataset", "loss"), list(UNET_TABLE.CELLS))
+def test_each_unet_cells_difference_of_costs_is_what_table_between_prints(metric: str, dataset: str, loss: str):
+    """The difference of the two models' UNet costs ((true maps − UNet maps) of the proposed model minus the same of
+    sha2020, paired over seeds) a UNet section quotes is `synthcal table TRUE --against UNET --paired
+    segmentation=ground-truth segmentation=unet --between proposed sha2020` today, to the printed digit."""
+    cell = UNET_TABLE.CELLS[(dataset, loss)]
     results = ROOT / "docs" / "results"
-    cells = synthcal.paired_contrast(results / true_maps, "segmentation=ground-truth", "segmentation=unet",
-                                     "proposed", "sha2020", metric=metric, against=results / unet_maps)
+    cells = synthcal.paired_contrast(results / cell.true_maps, "segmentation=ground-truth", "segmentation=unet",
+                                     "proposed", "sha2020", metric=metric, against=results / cell.unet_maps)
+    cells = cells[(cells["dataset"] == dataset) & (cells["loss"] == loss)]
     assert len(cells) == 1 and cells["n_pairs"].iloc[0] == 5
-    cell = cells.iloc[0]
-    interval = _interval(cell["mean"], cell["t_low"], cell["t_high"])
-    assert interval in " ".join(report_section(section).split()), f"{REPORT.name}, {section}: {metric} {interval} not quoted"
+    quoted = _interval(cells["mean"].iloc[0], cells["t_low"].iloc[0], cells["t_high"].iloc[0])
+    assert quoted in " ".join(report_section(cell.section).split()), (
+        f"{REPORT.name}, {cell.section}: {metric} {quoted} not quoted")
 
 
 def _number(text: str) -> float:

@@ -1,4 +1,4 @@
-"""The text of ``synthcal table``: the results tables, or the paired differences of two sides.
+"""The text of ``synthcal table``: the results tables, or the paired differences of two sides (and their contrasts).
 
 :func:`results_tables` splits a results frame by segmentation and profile and
 formats one table per part and layout (:func:`synthcal.eval.tables.format_table`),
@@ -10,7 +10,9 @@ table, the template diagnostics of its mixed-dictionary runs
 :func:`paired_report` reads the two sides of ``--paired A B`` (:func:`paired_sides`)
 and formats their per-seed differences with confidence intervals
 (:func:`synthcal.eval.statistics.format_paired`), the bootstrap's from each run's
-``metrics.csv`` (:func:`per_image_reader`). Both first give each estimator one
+``metrics.csv`` (:func:`per_image_reader`); with ``--between C D``, :func:`contrast_report`
+compares that difference between two values of another key
+(:func:`synthcal.eval.statistics.format_contrast`). All first give each estimator one
 label (:func:`one_label`). A request the results cannot answer raises
 :class:`ReportError`, one line for the user.
 """
@@ -44,7 +46,8 @@ from synthcal.eval.templates import diagnostics_text, format_diagnostics, oracle
 
 __all__ = ["ReportError", "finished_runs", "run_folders", "results_tables", "reproduction_report", "runs_layout",
            "split_by", "one_label", "background_floors", "per_image_reader",
-           "paired_sides", "paired_report", "paired_numbers", "report_numbers", "budget_differences"]
+           "paired_sides", "paired_report", "paired_numbers", "contrast_report", "contrast_numbers", "report_numbers",
+           "budget_differences"]
 
 # The reading whose tables state the all-background floor: the one that rewards predicting background.
 FLOOR_READINGS = ("iou_weighted",)

@@ -5,9 +5,13 @@
 # Resumable: bench reuses finished runs; kill it at any time and start it again.
 # On a reset machine (the thirty-sixth session's way back to step 18, 2 min): git clone /work/main /work/sweep29/code &&
 #   git -C /work/sweep29/code checkout e8eb178 && echo opencv-python-headless==5.0.0.93 > /tmp/cv.txt &&
-#   PIP_CONSTRAINT=/tmp/cv.txt make -C /work/sweep29/code venv (e8eb178 asks only for OpenCV >= 4.9, and pip takes 5.1
-#   since 2026-12-02, whose bilinear renders differ: the constraint keeps the stores byte-equal to those the archived
-#   runs read; the clone's tests/generate/test_pipeline.py checks their digests); then in /work/sweep29 step 0's
+#   PIP_CONSTRAINT=/tmp/cv.txt make -C /work/sweep29/code venv. OpenCV: e8eb178 asks only for >= 4.9, and pip takes
+#   5.1.0.95 since 2026-12-02, whose bilinear RGB renders differ from 5.0.0.93's in 0.03 % of the image values, by at
+#   most 2 levels (intersection-3's store, fifty-seventh session); class maps and homographies are byte-equal, so a
+#   true-map run is the same under both, but a UNet reads the RGB: its cache key and weights differ. Steps 45-49's
+#   UNets were trained on 5.1.0.95's renders (the venv of the forty-fifth session's reset, unpinned), step 50's from
+#   the fifty-seventh session on 5.0.0.93's (main's pin, the constraint above; the clone's
+#   tests/generate/test_pipeline.py passes with it); then in /work/sweep29 step 0's
 #   generate for just the scenes the next step reads (seconds; the regenerated stores give the archived run ids), the
 #   step itself in a script of its own under setsid nohup, and docs/sweeps/archive_runs.py for its archive.
 set -u
@@ -649,4 +653,7 @@ for dataset in intersection-3 intersection-4 intersection-5; do unet_cell dice $
 #      steps 45-47 had cached were lost. The frozen clone rebuilt as the header says (OpenCV 5.0.0.93),
 #      intersection-3's store regenerated, and step 50's intersection-3 run anew in seed slices, sha2020 training
 #      each seed's three UNets again: `unet_cell dice intersection-3 0-1 2-3` (/work/sweep29/run69.sh) beside
-#      `unet_cell dice intersection-3 4` (run70.sh), three runs on the two cores at first ----
+#      `unet_cell dice intersection-3 4` (run70.sh), three runs on the two cores at first. Its UNets are not step
+#      45's: a UNet cache key recomputed from step 50's seed-0 record gives the key step 45's run read
+#      (0bd5f1ca..., docs/results/unet30w_intersection3_segmentation.csv) only on a store rendered under OpenCV
+#      5.1.0.95, and the key the run recorded (443ae58c...) on 5.0.0.93's ----

@@ -8,9 +8,10 @@
 #   PIP_CONSTRAINT=/tmp/cv.txt make -C /work/sweep29/code venv. OpenCV: e8eb178 asks only for >= 4.9, and pip takes
 #   5.1.0.95 since 2026-12-02, whose bilinear RGB renders differ from 5.0.0.93's in 0.03 % of the image values, by at
 #   most 2 levels (intersection-3's store, fifty-seventh session); class maps and homographies are byte-equal, so a
-#   true-map run is the same under both, but a UNet reads the RGB: its cache key and weights differ. Steps 45-49's
-#   UNets were trained on 5.1.0.95's renders (the venv of the forty-fifth session's reset, unpinned), step 50's from
-#   the fifty-seventh session on 5.0.0.93's (main's pin, the constraint above; the clone's
+#   true-map run is the same under both, but a UNet reads the RGB: its cache key and weights differ. Step 45's UNets
+#   (read by step 48 too) were trained on 5.1.0.95's renders, checked by their cache key; steps 46, 47 and 49 ran in
+#   the same unpinned venv. Step 50's, from the fifty-seventh session, on 5.0.0.93's (main's pin, the constraint
+#   above; the clone's
 #   tests/generate/test_pipeline.py passes with it); then in /work/sweep29 step 0's
 #   generate for just the scenes the next step reads (seconds; the regenerated stores give the archived run ids), the
 #   step itself in a script of its own under setsid nohup, and docs/sweeps/archive_runs.py for its archive.

@@ -658,3 +658,6 @@ for dataset in intersection-3 intersection-4 intersection-5; do unet_cell dice $
 #      45's: a UNet cache key recomputed from step 50's seed-0 record gives the key step 45's run read
 #      (0bd5f1ca..., docs/results/unet30w_intersection3_segmentation.csv) only on a store rendered under OpenCV
 #      5.1.0.95, and the key the run recorded (443ae58c...) on 5.0.0.93's ----
+# ---- 2026-12-05 (fifty-seventh session): step 50's intersection-3 seeds 0, 1 and 4 done by 18:28 (sha2020 4,275-4,741 s,
+#      three runs on two cores; proposed 944-1,104 s); archived in docs/results/runs_unet30w_dice_intersection3.csv
+#      (--expect 6); seeds 2-3 (run69.sh's second slice) under way at the stop ----

@@ -1,7 +1,7 @@
 """The per-seed table of each "The UNet in the loop" section of docs/reproduction.md.
 
-One cell is a dataset and an STN loss, step by step, Top-MSE matching, the quick profile, seeds 0–4, with the UNet in
-the loop (``--segmentation unet``, docs/sweeps/unet30w.yaml) in one archive and the same cell on true maps in another.
+One cell is a dataset and an STN loss, step by step, Top-MSE matching, the quick profile, the seeds its UNet archive
+holds (0–4 once complete), with the UNet in the loop (``--segmentation unet``, docs/sweeps/unet30w.yaml) in one archive and the same cell on true maps in another.
 Per seed: each model's ``iou`` on the UNet's maps beside its ``iou`` on true maps, proposed − ``sha2020`` on the
 UNet's maps, and both models' ``iou_weighted`` on the UNet's maps; the last row gives mean ± std over the seeds and
 the difference's 95 % t interval. The report's tables are this script's output (tests/eval/test_committed_archives.py
@@ -26,7 +26,6 @@ from synthcal.eval.statistics import t_interval
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 MODELS = ("sha2020", "proposed")
-SEEDS = range(5)
 
 
 class Cell(NamedTuple):
@@ -51,6 +50,8 @@ CELLS = {
     **{(f"intersection-{k}", "top-dice"): Cell(f"## The UNet in the loop with Top-Dice (intersection-{k})",
                                                "runs_twentyseventh.csv", f"runs_unet30w_topdice_intersection{k}.csv")
        for k in (3, 4, 5)},
+    ("intersection-3", "dice"): Cell("## The UNet in the loop with Dice (intersection-3, under way)",
+                                     "runs_twentyeighth.csv", "runs_unet30w_dice_intersection3.csv"),
 }
 CELL_KEYS = {"training": "step-by-step", "matching_score": "top-mse", "profile": "quick"}
 
@@ -61,8 +62,9 @@ def runs(archive: str) -> pd.DataFrame:
     return read_archive(RESULTS / archive)
 
 
-def readings(archive: str, dataset: str, loss: str, segmentation: str, metric: str) -> pd.DataFrame:
-    """(seeds, models) ``metric`` in percent of one cell of an archive.
+def readings(archive: str, dataset: str, loss: str, segmentation: str, metric: str,
+             seeds: list[int] | None = None) -> pd.DataFrame:
+    """(seeds, models) ``metric`` in percent of one cell of an archive, on ``seeds`` (None: those it holds).
 
     Raises:
         ValueError: a seed of the cell lacks a model's run, or has two (naming the archive and cell).
@@ -70,11 +72,12 @@ def readings(archive: str, dataset: str, loss: str, segmentation: str, metric: s
     frame = runs(archive)
     keys = {**CELL_KEYS, "dataset": dataset, "loss": loss, "segmentation": segmentation}
     cell = frame[(frame[list(keys)] == pd.Series(keys)).all(axis=1) & frame["model"].isin(MODELS)]
-    counts = cell.groupby(["seed", "model"]).size().unstack("model").reindex(index=SEEDS, columns=MODELS)
-    if (counts != 1).any().any():
+    seeds = sorted(set(cell["seed"])) if seeds is None else seeds
+    counts = cell.groupby(["seed", "model"]).size().unstack("model").reindex(index=seeds, columns=list(MODELS))
+    if not seeds or (counts != 1).any().any():
         raise ValueError(f"{archive}: {dataset} {loss} on {segmentation} maps: not one run of each of {MODELS} on "
-                         f"every seed {list(SEEDS)}")
-    return cell.pivot(index="seed", columns="model", values=metric)[list(MODELS)] * 100
+                         f"every seed {seeds}")
+    return cell.pivot(index="seed", columns="model", values=metric).loc[seeds, list(MODELS)] * 100
 
 
 def _spread(values: pd.Series) -> str:
@@ -85,18 +88,20 @@ def lines(dataset: str, loss: str) -> list[str]:
     """The section's table as Markdown lines, its header first."""
     cell = CELLS[(dataset, loss)]
     unet = readings(cell.unet_maps, dataset, loss, "unet", "iou")
-    true = readings(cell.true_maps, dataset, loss, "ground-truth", "iou")
-    weighted = readings(cell.unet_maps, dataset, loss, "unet", "iou_weighted")
+    seeds = list(unet.index)
+    true = readings(cell.true_maps, dataset, loss, "ground-truth", "iou", seeds)
+    weighted = readings(cell.unet_maps, dataset, loss, "unet", "iou_weighted", seeds)
     gap = unet["proposed"] - unet["sha2020"]
     rows = ["| seed | `sha2020`, UNet maps | true maps | `proposed`, UNet maps | true maps | proposed − sha2020, UNet "
             "maps | `iou_weighted` (sha2020 / proposed) |",
             "|:---|---:|---:|---:|---:|---:|:---|"]
-    for seed in SEEDS:
+    for seed in seeds:
         rows.append(f"| {seed} | {unet.at[seed, 'sha2020']:.2f} | {true.at[seed, 'sha2020']:.2f} | "
                     f"{unet.at[seed, 'proposed']:.2f} | {true.at[seed, 'proposed']:.2f} | {signed(gap[seed])} | "
                     f"{weighted.at[seed, 'sha2020']:.2f} / {weighted.at[seed, 'proposed']:.2f} |")
     low, high, _ = t_interval(gap.to_numpy())
-    rows.append(f"| mean ± std | {_spread(unet['sha2020'])} | {_spread(true['sha2020'])} | "
+    label = "mean ± std" if len(seeds) == 5 else f"mean ± std ({len(seeds)} seeds)"  # an archive under way
+    rows.append(f"| {label} | {_spread(unet['sha2020'])} | {_spread(true['sha2020'])} | "
                 f"{_spread(unet['proposed'])} | {_spread(true['proposed'])} | {interval(float(gap.mean()), low, high)} | "
                 f"{_spread(weighted['sha2020'])} / {_spread(weighted['proposed'])} |")
     return rows

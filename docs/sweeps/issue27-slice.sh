@@ -9,7 +9,8 @@
 #   5.1.0.95 since 2026-12-02, whose bilinear RGB renders differ from 5.0.0.93's in 0.03 % of the image values, by at
 #   most 2 levels (intersection-3's store, fifty-seventh session); class maps and homographies are byte-equal, so a
 #   true-map run is the same under both, but a UNet reads the RGB: its cache key and weights differ. Step 45's UNets
-#   (read by step 48 too) were trained on 5.1.0.95's renders, checked by their cache key; steps 46, 47 and 49 ran in
+#   (read by step 48 too) were trained on 5.1.0.95's renders, checked by their cache key (docs/sweeps/unet_key.py);
+#   steps 46, 47 and 49 ran in
 #   the same unpinned venv. Step 50's, from the fifty-seventh session, on 5.0.0.93's (main's pin, the constraint
 #   above; the clone's
 #   tests/generate/test_pipeline.py passes with it); then in /work/sweep29 step 0's

@@ -10,12 +10,11 @@
 #   most 2 levels (intersection-3's store, fifty-seventh session); class maps and homographies are byte-equal, so a
 #   true-map run is the same under both, but a UNet reads the RGB: its cache key and weights differ. Step 45's UNets
 #   (read by step 48 too) were trained on 5.1.0.95's renders, checked by their cache key (docs/sweeps/unet_key.py);
-#   steps 46, 47 and 49 ran in
-#   the same unpinned venv. Step 50's, from the fifty-seventh session, on 5.0.0.93's (main's pin, the constraint
-#   above; the clone's
-#   tests/generate/test_pipeline.py passes with it); then in /work/sweep29 step 0's
-#   generate for just the scenes the next step reads (seconds; the regenerated stores give the archived run ids), the
-#   step itself in a script of its own under setsid nohup, and docs/sweeps/archive_runs.py for its archive.
+#   steps 46, 47 and 49 ran in the same unpinned venv. Step 50's, from the fifty-seventh session, on 5.0.0.93's
+#   (main's pin, the constraint above; the clone's tests/generate/test_pipeline.py passes with it). Then in
+#   /work/sweep29 step 0's generate for just the scenes the next step reads (seconds; the regenerated stores give the
+#   archived run ids), the step itself in a script of its own under setsid nohup, and docs/sweeps/archive_runs.py for
+#   its archive.
 set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 cd "${SWEEP:-.}"

@@ -497,7 +497,7 @@ def segmentation_quality(results: str | Path, data: str | Path | None = None, *,
         if data is not None:
             run = dataclasses.replace(run, store=str(Path(data) / Path(run.store).name))
         s = TrainingSettings(**(run.settings or {}))
-        rate = chosen_learning_rate(record) or s.learning_rate
+        rate = s.unet_learning_rate or chosen_learning_rate(record) or s.learning_rate  # the rate its UNet trained at
         scene = read_scene(run.store)
         # The UNet's key as PaperEstimator makes it (train_cache_key, unet_cache_key), from the run's recorded code;
         # the train split's digest is the slow part, and every model and loss of a seed shares it.

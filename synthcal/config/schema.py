@@ -472,6 +472,11 @@ class TrainingSettings(StrictModel):
     ``select`` (None: ``learning_rate`` alone): the learning rates tried, the one
     whose trained model scores best on the validation split kept. Both read the
     validation split, never test.
+    ``unet_learning_rate`` (None: the run's ``learning_rate``, so that ``select`` trains
+    a UNet at each rate it tries): a step-by-step UNet's own rate, fixed while
+    ``select`` varies the rate of the stages after it — every rate tried then reads
+    the same UNet, and two models read the same UNet whatever rate each keeps (end to
+    end trains every stage jointly at one rate, so it refuses the setting).
     ``selection_score`` (None: ``warp-loss``) is what ranks the fits for both: the
     run's own ``L_warp`` of the validation estimates, or ``iou`` — 1 − their mean
     ``iou``, the tables' reading at the working resolution
@@ -483,6 +488,7 @@ class TrainingSettings(StrictModel):
     max_train: StrictInt | None = Field(None, ge=1)
     batch_size: StrictInt = Field(16, ge=1)
     learning_rate: StrictFloat = Field(1e-3, gt=0)
+    unet_learning_rate: StrictFloat | None = Field(None, gt=0)
     unet_width: StrictInt = Field(16, ge=1)
     unet_depth: StrictInt = Field(4, ge=1)
     unet_epochs: StrictInt = Field(20, ge=1)
@@ -529,12 +535,12 @@ class TrainingProfile(TrainingSettings):
     def settings(self) -> dict[str, Any]:
         """The :class:`TrainingSettings` fields as a plain dict (what estimators take).
 
-        ``batch_norm``, ``patience``, ``unet_class_weights``, ``select`` and ``selection_score`` are left out
-        while None, so that the runs recorded before they existed keep their ids (the settings are in the
-        run's hash; set, they are part of it).
+        ``batch_norm``, ``patience``, ``unet_class_weights``, ``unet_learning_rate``, ``select`` and
+        ``selection_score`` are left out while None, so that the runs recorded before they existed keep their
+        ids (the settings are in the run's hash; set, they are part of it).
         """
-        unset = {name for name in ("batch_norm", "patience", "unet_class_weights", "select", "selection_score")
-                 if getattr(self, name) is None}
+        unset = {name for name in ("batch_norm", "patience", "unet_class_weights", "unet_learning_rate", "select",
+                                   "selection_score") if getattr(self, name) is None}
         return self.model_dump(mode="json", exclude={"segmentation", *unset})
 
 

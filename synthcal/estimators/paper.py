@@ -97,7 +97,10 @@ cross-entropy (:func:`synthcal.training.segmentation_validation_loss`).
 ``select: {learning_rate: [...]}``: the whole model is fitted at each rate and the
 best-scoring fit kept; :attr:`selection` records ``{split, grid, scores, chosen,
 score}``. A rate is one setting for every stage, so the cached UNet and Siamese
-at a rate are shared by all the runs (models, losses) that try it.
+at a rate are shared by all the runs (models, losses) that try it — unless
+``settings.unet_learning_rate`` fixes the step-by-step UNet's own: then every rate
+tried, and every model, reads that one UNet, and a model's choice of rate no longer
+picks its UNet too.
 With the UNet in the loop, the validation maps also give the UNet's IoU per class
 (``history["unet-class-iou"]``, :func:`synthcal.training.segmentation_class_iou`);
 where the kept UNet all but misses a class (:data:`MISSED_CLASS_IOU`, on at least
@@ -451,6 +454,11 @@ class PaperEstimator:
             asked = "patience" if s.select is None else "select"
             raise ValueError(f"settings.{asked}: needs a validation split, and none was given (draw one with "
                              f"`synthcal split STORE --validation N`)")
+        if s.unet_learning_rate is not None and (self.training == "end-to-end" or not self.uses_unet):
+            why = "trains every stage jointly at one rate" if self.uses_unet else "has no UNet (segmentation " \
+                f"{self.segmentation!r})"
+            raise ValueError(f"settings.unet_learning_rate {s.unet_learning_rate:g}: a step-by-step UNet's own rate, "
+                             f"and this {self.training} run {why}")
         self.trained_stages, self.selection = [], None
         data, keys = self._data(train, dictionary, scene)
         self._held_out = None if validation is None else self._validation_data(validation, data)
@@ -471,7 +479,8 @@ class PaperEstimator:
         finally:
             self.settings, self._validation = s, None  # the kept fit may be an earlier rate's
         self._fitted, self.history, self.stage_keys = kept
-        self._warn_missed_classes(s.learning_rate if s.select is None else grid[_best(scores)])
+        self._warn_missed_classes(s.unet_learning_rate or (s.learning_rate if s.select is None
+                                                            else grid[_best(scores)]))
         if s.select is not None:
             self.selection = {"split": "validation", "score": self._score_name(),
                               "grid": {"learning_rate": list(grid)}, "scores": {"learning_rate": scores},
@@ -596,8 +605,11 @@ class PaperEstimator:
         if self.uses_unet:
             # Under patience the UNet keeps its best epoch by validation cross-entropy, as the STN does by L_warp.
             held_out = self._held_out if s.patience is not None else None
+            rate = s.unet_learning_rate or s.learning_rate
+            unet_common = common.copy()
+            unet_common["lr"] = rate
             unet_key = unet_cache_key(keys["train"], s.unet_width, s.unet_depth, s.unet_epochs, s.batch_size,
-                                      s.learning_rate, self.seed, held_out_key=keys.get("held_out"),
+                                      rate, self.seed, held_out_key=keys.get("held_out"),
                                       patience=None if held_out is None else s.patience,
                                       class_weights=s.unet_class_weights)
             weights = self._unet_class_weights(data)
@@ -605,7 +617,7 @@ class PaperEstimator:
                                                               class_weights=weights)
             unet = self._stage("unet", unet_key, self._unet(), lambda m, log: train_unet(
                 m, data, s.unet_epochs, log=log, validate=validate, patience=s.patience,
-                scores=self._log("unet-validation") if validate else None, class_weights=weights, **common))
+                scores=self._log("unet-validation") if validate else None, class_weights=weights, **unet_common))
             data = with_unet_maps(data, unet, self.device)
         siamese_key = digest("siamese", keys["train"], keys["dictionary"], self.matching, keys["match"], unet_key,
                              s.siamese_width, s.embedding_dim, s.siamese_epochs, s.batch_size, s.learning_rate,

@@ -527,6 +527,8 @@ def training_budget(record: dict[str, Any]) -> str | None:
     if settings.get("select"):
         rates = ", ".join(f"{rate:g}" for rate in settings["select"]["learning_rate"])
         parts.append(f"learning rate chosen on validation from {rates}")
+    if settings.get("unet_learning_rate") is not None:
+        parts.append(f"UNet at learning rate {settings['unet_learning_rate']:g}")
     if settings.get("selection_score") == "iou":
         parts.append("fits ranked by validation iou")
     return "; ".join(parts)

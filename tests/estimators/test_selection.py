@@ -14,6 +14,7 @@ from synthcal.data import load_split, load_splits
 from synthcal.estimators import load_estimator
 from synthcal.estimators.paper import MissedClassWarning
 from synthcal.eval.harness import collect_results, execute_run, expand_runs, read_record, run_folder, table_runs
+from synthcal.eval.runs import training_budget
 from synthcal.eval.tables import format_table
 from synthcal.generate.splits import draw_splits
 from synthcal.models import UNet
@@ -118,6 +119,45 @@ def test_under_patience_the_unet_keeps_its_best_validation_epoch(splits, setting
     assert "unet" not in again.trained_stages and again.stage_keys["unet"] == key
     assert again.history["unet-validation"] == pytest.approx(scores)
     assert again.selection["chosen"]["unet_epochs"] == best_epoch(scores) + 1
+
+
+@pytest.mark.filterwarnings("ignore::synthcal.estimators.paper.MissedClassWarning")  # a one-epoch smoke UNet
+def test_a_fixed_unet_rate_gives_every_rate_tried_and_every_model_one_unet(splits, settings, tmp_path):
+    """``unet_learning_rate`` fixes the step-by-step UNet's own rate while ``select`` varies the later stages':
+    one UNet trained once at that rate (its key the one a plain run at that rate gives it), read by every rate and
+    model; the Siamese still one per rate tried."""
+    fixed = {**settings, "select": {"learning_rate": RATES}, "unet_learning_rate": RATES[1]}
+    proposed = load_estimator("proposed", settings=fixed, device="cpu", segmentation="unet", cache_dir=tmp_path)
+    proposed.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert proposed.trained_stages == ["unet", "siamese", "stn", "siamese", "stn"]
+    assert len(list((tmp_path / "unet").glob("*.pt"))) == 1 and len(list((tmp_path / "siamese").glob("*.pt"))) == 2
+    baseline = load_estimator("baseline", settings=fixed, device="cpu", segmentation="unet", cache_dir=tmp_path)
+    baseline.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert baseline.trained_stages == ["stn", "stn"] and baseline.stage_keys["unet"] == proposed.stage_keys["unet"]
+    # A run at that rate alone, without the setting, trains the same UNet: the setting changes which rate, not how.
+    alone = load_estimator("baseline", settings={**settings, "learning_rate": RATES[1]}, device="cpu",
+                           segmentation="unet", cache_dir=tmp_path)
+    alone.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert "unet" not in alone.trained_stages and alone.stage_keys["unet"] == proposed.stage_keys["unet"]
+    # Without the setting the grid trains a UNet per rate, as before.
+    per_rate = load_estimator("baseline", settings={**fixed, "unet_learning_rate": None}, device="cpu",
+                              segmentation="unet", cache_dir=tmp_path)
+    per_rate.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
+    assert per_rate.trained_stages.count("unet") == 1 and len(list((tmp_path / "unet").glob("*.pt"))) == 2
+    # Unset, it is not in the settings a run records (older runs keep their ids); set, its budget says it.
+    assert "unet_learning_rate" not in settings
+    budget = training_budget({"run": {"training": "step-by-step", "segmentation": "unet", "settings": fixed}})
+    assert budget.endswith("; UNet at learning rate 0.003")
+
+
+@pytest.mark.parametrize(("training", "segmentation", "why"), [("end-to-end", "unet", "jointly at one rate"),
+                                                             ("step-by-step", "ground-truth", "has no UNet")])
+def test_a_fixed_unet_rate_is_refused_where_no_step_by_step_unet_trains(splits, settings, training, segmentation,
+                                                                        why):
+    estimator = load_estimator("proposed", settings={**settings, "unet_learning_rate": 1e-3}, device="cpu",
+                               segmentation=segmentation, training=training)
+    with pytest.raises(ValueError, match=f"settings.unet_learning_rate 0.001: .*{why}"):
+        estimator.fit(splits["train"], splits["dictionary"], splits["train"].scene, validation=splits["validation"])
 
 
 def test_patience_keeps_the_best_validation_epoch(splits, settings):

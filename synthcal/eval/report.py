@@ -464,14 +464,22 @@ def paired_report(frame: pd.DataFrame, sides: Sequence[str], fmt: str, metric: s
     Raises:
         ReportError: as :func:`paired_sides`, or no pairs to compare.
     """
-    frame, key, a, b, per_image, claim = _paired_inputs(frame, sides, metric, results, other, other_results)
+    paired = _paired_inputs(frame, sides, metric, results, other, other_results)
     try:
-        text = format_paired(frame, a, b, key, fmt, metric, aliases=_ALIASES, per_image=per_image, claim=claim)
+        text = format_paired(paired.frame, paired.a, paired.b, paired.key, fmt, metric, aliases=_ALIASES,
+                             per_image=paired.per_image, claim=paired.claim)
     except ValueError as error:
         raise ReportError(str(error)) from None
-    if claim is None or fmt == "csv":
+    return _with_across_note(text, paired, fmt, results, other_results)
+
+
+def _with_across_note(text: str, paired: _Paired, fmt: str, results: str | Path | None,
+                      other_results: str | Path | None) -> str:
+    """``text`` with :func:`_across_note` appended to its caption where the sides come from two folders."""
+    if paired.claim is None or fmt == "csv":
         return text
-    return text.rstrip("\n") + "\n" + wrap_caption(_across_note(frame, key, a, b, results, other_results), fmt) + "\n"
+    note = _across_note(paired.frame, paired.key, paired.a, paired.b, results, other_results)
+    return text.rstrip("\n") + "\n" + wrap_caption(note, fmt) + "\n"
 
 
 def _across_note(frame: pd.DataFrame, key: str, a: str, b: str, results: str | Path | None,
@@ -538,10 +546,7 @@ def contrast_report(frame: pd.DataFrame, sides: Sequence[str], between: Sequence
         text = format_contrast(paired.frame, paired.a, paired.b, paired.key, c, d, between_key, fmt, metric)
     except ValueError as error:
         raise ReportError(str(error)) from None
-    if paired.claim is None or fmt == "csv":
-        return text
-    note = _across_note(paired.frame, paired.key, paired.a, paired.b, results, other_results)
-    return text.rstrip("\n") + "\n" + wrap_caption(note, fmt) + "\n"
+    return _with_across_note(text, paired, fmt, results, other_results)
 
 
 def budget_differences(frame: pd.DataFrame, key: str, a: str, b: str) -> tuple[list[str], list[str]]:

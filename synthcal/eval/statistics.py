@@ -280,8 +280,7 @@ def paired_frame(
         ValueError: bad results (as :func:`synthcal.eval.tables.aggregate`), an
             unknown key, or no pair.
     """
-    if key not in PAIR_KEYS or key == "dataset":
-        raise ValueError(f"cannot pair over {key!r}; one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
+    _check_pairable(key)
     frame = validate_results(results, value, PAIR_KEYS)
     others = [k for k in PAIR_KEYS if k != key]
     pairs = paired_runs(frame, key, a, b, [value] + (["run_id"] if "run_id" in frame else []))
@@ -291,13 +290,11 @@ def paired_frame(
     pairs["a_wins"] = pairs[f"{value}_a"] > pairs[f"{value}_b"]  # as displayed: A > B (for pixels, A worse)
     rows = []
     for cell, group in pairs.groupby(others, sort=False):
-        t_low, t_high, p = t_interval(group["difference"])
         # Pixel metrics are summarised by per-run medians (an image may score inf): no bootstrap of means.
         images = None if value in PIXEL_METRICS else _image_differences(group, per_image)
         boot = bootstrap_interval(images, resamples) if images else (np.nan, np.nan)
-        rows.append({**dict(zip(others, cell, strict=True)), "mean": group["difference"].mean(),
-                     "std": group["difference"].std(ddof=1), "n_pairs": len(group),
-                     "a_wins": int(group["a_wins"].sum()), "t_low": t_low, "t_high": t_high, "p": p,
+        rows.append({**dict(zip(others, cell, strict=True)),
+                     **_seed_summary(group["difference"], "a_wins", int(group["a_wins"].sum())),
                      "boot_low": boot[0], "boot_high": boot[1]})
     out = pd.DataFrame(rows)
     paper_a, paper_b = claim or (a, b)
@@ -307,6 +304,28 @@ def paired_frame(
     out["verdict"] = [verdict(lo, hi, d) for lo, hi, d in zip(out["t_low"], out["t_high"], out["paper"], strict=True)]
     out.attrs.update(a=a, b=b, key=key, value=value, resamples=resamples)
     return out
+
+
+def _check_pairable(key: str) -> None:
+    """Raise ValueError unless runs can be paired over ``key`` (a key of :data:`PAIR_KEYS` but ``dataset``)."""
+    if key not in PAIR_KEYS or key == "dataset":
+        raise ValueError(f"cannot pair over {key!r}; one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
+
+
+def _seed_summary(differences: pd.Series, wins_column: str, wins: int) -> dict[str, float]:
+    """One cell's per-seed differences summarised: ``mean``, ``std`` (ddof = 1), ``n_pairs``, the seeds
+    counted in ``wins_column``, and the t interval with its p (:func:`t_interval`)."""
+    t_low, t_high, p = t_interval(differences)
+    return {"mean": differences.mean(), "std": differences.std(ddof=1), "n_pairs": len(differences),
+            wins_column: wins, "t_low": t_low, "t_high": t_high, "p": p}
+
+
+def _varying_and_constant(cells: pd.DataFrame, keys: Sequence[str]) -> tuple[list[str], dict[str, str]]:
+    """Of ``keys``, those whose values differ across ``cells`` (dataset always), and the others' one value
+    (left out where it is missing): a table's row keys and its caption's constants."""
+    varying = [k for k in keys if k == "dataset" or cells[k].nunique() > 1]
+    constants = {k: cells[k].iloc[0] for k in keys if k not in varying and cells[k].iloc[0] != MISSING}
+    return varying, constants
 
 
 def _signed(mean: float, std: float, n: int) -> str:
@@ -346,9 +365,7 @@ def format_paired(
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
     cells = paired_frame(results, a, b, key, value, aliases, per_image, resamples, claim)
-    others = [k for k in PAIR_KEYS if k != key]
-    varying = [k for k in others if k == "dataset" or cells[k].nunique() > 1]
-    constants = {k: cells[k].iloc[0] for k in others if k not in varying and cells[k].iloc[0] != MISSING}
+    varying, constants = _varying_and_constant(cells, [k for k in PAIR_KEYS if k != key])
     cells = _in_paper_order(cells, varying)
     if fmt == "csv":
         return cells[[*varying, "mean", "std", "n_pairs", "a_wins", "t_low", "t_high", "p", "boot_low", "boot_high",
@@ -426,8 +443,7 @@ def contrast_frame(results: pd.DataFrame, a: str, b: str, key: str, c: str, d: s
     (7.5, 2, 2)
     """
     for k in (key, between):
-        if k not in PAIR_KEYS or k == "dataset":
-            raise ValueError(f"cannot pair over {k!r}; one of {', '.join(k for k in PAIR_KEYS if k != 'dataset')}")
+        _check_pairable(k)
     if key == between:
         raise ValueError(f"the contrast must be taken over another key than the paired one ({key!r})")
     pairs = paired_runs(validate_results(results, value, PAIR_KEYS), key, a, b, [value])
@@ -439,12 +455,9 @@ def contrast_frame(results: pd.DataFrame, a: str, b: str, key: str, c: str, d: s
         raise ValueError(f"no seed with all four runs: {key} {a!r} and {b!r}, each under {between} {c!r} and {d!r}, "
                          f"on the same dataset, seed and settings")
     both["contrast"] = both["difference_c"] - both["difference_d"]
-    rows = []
-    for cell, group in both.groupby(cells, sort=False):
-        t_low, t_high, p = t_interval(group["contrast"])
-        rows.append({**dict(zip(cells, cell, strict=True)), "mean": group["contrast"].mean(),
-                     "std": group["contrast"].std(ddof=1), "n_pairs": len(group),
-                     "c_wins": int((group["contrast"] > 0).sum()), "t_low": t_low, "t_high": t_high, "p": p})
+    rows = [{**dict(zip(cells, cell, strict=True)),
+             **_seed_summary(group["contrast"], "c_wins", int((group["contrast"] > 0).sum()))}
+            for cell, group in both.groupby(cells, sort=False)]
     out = pd.DataFrame(rows)
     out.attrs.update(a=a, b=b, key=key, c=c, d=d, between=between, value=value)
     return out
@@ -457,9 +470,7 @@ def format_contrast(results: pd.DataFrame, a: str, b: str, key: str, c: str, d: 
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; one of {FORMATS}")
     cells = contrast_frame(results, a, b, key, c, d, between, value)
-    keys = [k for k in PAIR_KEYS if k not in (key, between)]
-    varying = [k for k in keys if k == "dataset" or cells[k].nunique() > 1]
-    constants = {k: cells[k].iloc[0] for k in keys if k not in varying and cells[k].iloc[0] != MISSING}
+    varying, constants = _varying_and_constant(cells, [k for k in PAIR_KEYS if k not in (key, between)])
     cells = _in_paper_order(cells, varying)
     if fmt == "csv":
         return cells[[*varying, "mean", "std", "n_pairs", "c_wins", "t_low", "t_high", "p"]].to_csv(index=False)

@@ -661,3 +661,17 @@ for dataset in intersection-3 intersection-4 intersection-5; do unet_cell dice $
 # ---- 2026-12-05 (fifty-seventh session): step 50's intersection-3 seeds 0, 1 and 4 done by 18:28 (sha2020 4,275-4,741 s,
 #      three runs on two cores; proposed 944-1,104 s); archived in docs/results/runs_unet30w_dice_intersection3.csv
 #      (--expect 6); seeds 2-3 (run69.sh's second slice) under way at the stop ----
+# ---- 2026-12-07 (fifty-eighth session): step 50's intersection-3 complete — seeds 2-3 (/work/sweep29/run71.sh, the
+#      same rebuilt clone and folder, OpenCV 5.0.0.93): sha2020 two runs side by side in 75 min, proposed in 11 min;
+#      appended to docs/results/runs_unet30w_dice_intersection3.csv (--expect 4; the archive holds 10 runs).
+#      Intersections 4 and 5 with Dice (the rest of step 50's loop) not started: about 2 h a cell here ----
+# 51. (fifty-eighth session, run71.sh, chained after step 50's seeds 2-3) sha2020 on intersection-2 end to end with
+#     Dice and Top-Dice, on the CPU: the proposed side ran here in step 43, sha2020's only on a GPU
+#     (runs_twentyfirst_gpu.csv), so every pair of the cell is now on one device; the store regenerated in the folder
+#     (class maps, homographies and splits byte-equal whatever the OpenCV build)
+for loss in dice top-dice; do
+  step $S bench --datasets intersection-2 --estimator sha2020 --training end-to-end --loss $loss $SEL $COMMON --workers 2
+done
+# ---- 2026-12-07 (fifty-eighth session): step 51 done in 29 + 31 min (10 runs, 513-646 s each); archive
+#      docs/results/runs_fiftyeighth.csv (`--where dataset=intersection-2 model=sha2020 training=end-to-end
+#      loss=dice,top-dice --expect 10`) ----

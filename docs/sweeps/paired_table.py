@@ -97,6 +97,7 @@ TABLES = {
         ("runs_fiftysecond.csv", "runs_eleventh.csv"),
         ("runs_seventeenth.csv", "runs_fiftythird.csv"),
         ("runs_fiftieth.csv", "runs_fiftythird.csv"),
+        ("runs_fiftyeighth.csv", "runs_eleventh.csv"),
     ]),
     # (Top-MSE-matching archive, MSE-matching archive or None).
     "matching": PairedTable("matching_score=top-mse", "matching_score=mse", "archives, Top-MSE − MSE matching", [

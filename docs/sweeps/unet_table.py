@@ -50,7 +50,7 @@ CELLS = {
     **{(f"intersection-{k}", "top-dice"): Cell(f"## The UNet in the loop with Top-Dice (intersection-{k})",
                                                "runs_twentyseventh.csv", f"runs_unet30w_topdice_intersection{k}.csv")
        for k in (3, 4, 5)},
-    ("intersection-3", "dice"): Cell("## The UNet in the loop with Dice (intersection-3, under way)",
+    ("intersection-3", "dice"): Cell("## The UNet in the loop with Dice (intersection-3)",
                                      "runs_twentyeighth.csv", "runs_unet30w_dice_intersection3.csv"),
 }
 CELL_KEYS = {"training": "step-by-step", "matching_score": "top-mse", "profile": "quick"}

@@ -111,6 +111,8 @@ LOSS_PAIRS = [
     ("runs_twentieth.csv", "runs_eighteenth.csv", "top-dice", "dice"),
     ("runs_twentyfirst.csv", None, "top-dice", "dice"),
     ("runs_twentyfirst_gpu.csv", None, "top-dice", "dice"),
+    ("runs_fiftysecond.csv", None, "top-dice", "dice"),
+    ("runs_fiftyeighth.csv", None, "top-dice", "dice"),
     ("runs_twentysecond.csv", None, "top-dice", "dice"),
     ("runs_twentysecond.csv", None, "top-mse", "mse"),
     ("runs_twentyninth.csv", None, "top-dice", "dice"),

@@ -210,6 +210,14 @@ def test_the_reports_unet_layers_change_only_the_quick_unet(name, weights):
     assert bundled.unet_epochs != 30  # the layer is what sets it
 
 
+def test_the_fixed_unet_rate_layer_is_unet30w_with_the_unets_rate_fixed():
+    """docs/sweeps/unet30w_unetlr1e-3.yaml (slice step 52) is unet30w.yaml plus training.unet_learning_rate 1e-3."""
+    fixed = load_config(ROOT / "docs" / "sweeps" / "unet30w_unetlr1e-3.yaml").training("quick")
+    plain = load_config(ROOT / "docs" / "sweeps" / "unet30w.yaml").training("quick")
+    assert fixed.unet_learning_rate == 1e-3 and plain.unet_learning_rate is None
+    assert fixed.model_dump(exclude={"unet_learning_rate"}) == plain.model_dump(exclude={"unet_learning_rate"})
+
+
 def test_the_reports_stn_ceiling_layer_changes_only_the_quick_stn_epochs():
     """docs/sweeps/stn48.yaml (the report's STN-ceiling check) doubles the quick profile's STN epochs, nothing else."""
     layered = load_config(ROOT / "docs" / "sweeps" / "stn48.yaml").training("quick")

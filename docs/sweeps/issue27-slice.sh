@@ -675,3 +675,12 @@ done
 # ---- 2026-12-07 (fifty-eighth session): step 51 done in 29 + 31 min (10 runs, 513-646 s each); archive
 #      docs/results/runs_fiftyeighth.csv (`--where dataset=intersection-2 model=sha2020 training=end-to-end
 #      loss=dice,top-dice --expect 10`) ----
+# 52. (fifty-eighth session, /work/sweep29/run72.sh, a folder of its own, /work/sweep29/ulr, reading step 50's stores
+#     through a link; main's code, not the frozen clone: training.unet_learning_rate exists only there) the proposed
+#     model on intersection-3 with Dice on the UNet's maps, its UNet's rate fixed at 1e-3 (sweeps/unet30w_unetlr1e-3.yaml)
+#     so that it reads the UNet sha2020 read on every seed: seeds 1-3, where it chose 3e-4 in step 50, tell the weaker
+#     UNet's part of its cost from the model's; seeds 0 and 4, where it chose 1e-3, check that main's code gives step
+#     50's runs. Started at 22:57, an hour before the session's stop: seeds 0-1 may finish, 2-4 not (≈ 28 min a run
+#     two side by side, as its UNet trains again: the UNet cache key holds the code's hash)
+step $NEW bench --estimator proposed --seeds 0-4 --datasets intersection-3 --segmentation unet --loss dice \
+    --config "$HERE/unet30w_unetlr1e-3.yaml" $SEL --data data --results results --profile quick --quiet --yes --workers 2
